@@ -1,0 +1,65 @@
+// Grids of test functions over the unit square for quadtree and convolution tests: random,
+// smooth, steps (including along the square's diagonals) and a single bright spike.
+#pragma once
+
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "basis/grid.h"
+
+namespace basis::testing {
+
+struct NamedGrid {
+  std::string name;
+  Grid grid;
+};
+
+// Fills every channel of group 0 with f(u, v, channel) sampled at texel centres.
+template <typename F>
+Grid sample_grid(int n, int channels, F f) {
+  Grid g(n, channels);
+  for (int c = 0; c < channels; ++c)
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x)
+        g.at(0, c, x, y) = float(f((x + 0.5) / n, (y + 0.5) / n, c));
+  return g;
+}
+
+inline Grid random_grid(int n, int channels, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> unit(0, 1);
+  Grid g(n, channels);
+  for (float& t : g.texels)
+    t = unit(rng);
+  return g;
+}
+
+// The functions every property test runs over, at resolution n.
+inline std::vector<NamedGrid> test_functions(int n, int channels, unsigned seed) {
+  std::vector<NamedGrid> out;
+  out.push_back({"random", random_grid(n, channels, seed)});
+  out.push_back({"smooth", sample_grid(n, channels, [](double u, double v, int c) {
+                   return 1.5 + std::sin(6 * u + c) * std::cos(4 * v) +
+                          20 * std::exp(-60 * ((u - 0.3) * (u - 0.3) + (v - 0.6) * (v - 0.6)));
+                 })});
+  out.push_back({"step", sample_grid(n, channels, [](double u, double v, int c) {
+                   return (u > 0.37 ? 4.0 : 0.5) + (v < 0.81 ? 1.0 : 0.0) + c;
+                 })});
+  out.push_back({"diagonal_step", sample_grid(n, channels, [](double u, double v, int c) {
+                   return u > v ? 3.0 + c : 0.25;
+                 })});
+  out.push_back({"antidiagonal_step", sample_grid(n, channels, [](double u, double v, int) {
+                   return u + v > 1 ? 1.0 : 7.0;
+                 })});
+  Grid spike(n, channels);
+  for (float& t : spike.texels)
+    t = 0.5f;
+  for (int c = 0; c < channels; ++c)
+    spike.at(0, c, n / 3, n / 5) = 1e5f;
+  out.push_back({"spike", std::move(spike)});
+  return out;
+}
+
+}  // namespace basis::testing
