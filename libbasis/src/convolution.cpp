@@ -14,15 +14,19 @@ namespace basis {
 
 namespace {
 
-void check_compatible(const QuadtreeShape& a, const QuadtreeShape& b) {
-  if (a.channels != b.channels && a.channels != 1 && b.channels != 1)
-    throw std::invalid_argument("cannot convolve trees of " + std::to_string(a.channels) + " and " +
-                                std::to_string(b.channels) + " channels");
+[[noreturn, gnu::cold, gnu::noinline]] void throw_incompatible(int a, int b) {
+  throw std::invalid_argument("cannot convolve trees of " + std::to_string(a) + " and " +
+                              std::to_string(b) + " channels");
+}
+
+inline void check_compatible(const QuadtreeShape& a, const QuadtreeShape& b) {
+  if (a.channels != b.channels && a.channels != 1 && b.channels != 1) [[unlikely]]
+    throw_incompatible(a.channels, b.channels);
 }
 
 // Result lanes: a one-channel result is repeated in all three lanes.
-template <typename T>
-Rgb to_rgb(const T (&v)[3], int channels) {
+template <typename T, std::size_t N>
+Rgb to_rgb(const T (&v)[N], int channels) {
   return channels == 1 ? Rgb{float(v[0]), float(v[0]), float(v[0])}
                        : Rgb{float(v[0]), float(v[1]), float(v[2])};
 }
@@ -57,94 +61,173 @@ void descend_scalar(const QuadtreeView& a, const QuadtreeView& b, int na, int nb
 
 #if defined(__SSE2__)
 
-struct StackEntry {
-  std::int32_t a, b;
-  float area;
-};
-// A pop pushes at most four entries and trees are at most kMaxTreeLevels deep.
-constexpr int kStackSize = 4 * kMaxTreeLevels + 8;
+inline __m128 abs_ps(__m128 x) { return _mm_andnot_ps(_mm_set1_ps(-0.0f), x); }
 
-inline __m128 abs_ps(__m128 x) {
-  return _mm_andnot_ps(_mm_set1_ps(-0.0f), x);
-}
-
-inline float horizontal_sum(__m128 v) {
-  alignas(16) float lanes[4];
-  _mm_store_ps(lanes, v);
-  return (lanes[0] + lanes[1]) + (lanes[2] + lanes[3]);
+// Lane sums of C accumulators (C = 1 or 3) into out[0..C-1]; out has room for four floats.
+template <int C>
+inline void store_lane_sums(const __m128 (&v)[C], float* out) {
+  if constexpr (C == 1) {
+    const __m128 pairs = _mm_add_ps(v[0], _mm_movehl_ps(v[0], v[0]));
+    _mm_store_ss(out, _mm_add_ss(pairs, _mm_shuffle_ps(pairs, pairs, 1)));
+  } else {
+    const __m128 t = _mm_hadd_ps(v[0], v[1]);
+    const __m128 u = _mm_hadd_ps(v[2], v[2]);
+    _mm_storeu_ps(out, _mm_hadd_ps(t, u));
+  }
 }
 
 // Simultaneous descent of a (groups 0..GA-1) and b (group 0). Where either quadrant is a leaf,
-// adds a * b * area (masked lanes); pushes the quadrants where both trees go on.
+// adds a * b * area (masked lanes); queues the quadrants where both trees go on. Pairs are
+// taken first-in first-out (breadth first), so that consecutive pairs do not depend on each
+// other and their loads overlap, and all pairs of one level share one quadrant area. When the
+// ring is full the pending quadrants descend in a nested call.
 template <int CA, int CB, int GA, bool kBound>
-void descend_sse(const QuadtreeView& a, const QuadtreeView& b, float (&value)[GA][3],
-                 float (&bound)[3]) {
-  constexpr int C = CA > CB ? CA : CB;
-  const Quad* nodes_a = a.nodes().data();
-  const Quad* nodes_b = b.nodes().data();
-  const Quad* errors_a = a.errors().data();
-  const Quad* errors_b = b.errors().data();
-  const std::size_t stride_a = a.shape().stride(), stride_b = b.shape().stride();
+class SseDescent {
+ public:
+  static constexpr int C = CA > CB ? CA : CB;
+  struct Sums {
+    __m128 value[GA][C];
+    __m128 bound[C];
+  };
 
-  __m128 acc[GA][C];
-  __m128 bound_acc[C];
-  for (int c = 0; c < C; ++c) {
-    for (int g = 0; g < GA; ++g)
-      acc[g][c] = _mm_setzero_ps();
-    bound_acc[c] = _mm_setzero_ps();
-  }
-  const __m128i zero = _mm_setzero_si128();
+  SseDescent(const QuadtreeView& a, const QuadtreeView& b)
+      : nodes_a_(a.nodes().data()),
+        nodes_b_(b.nodes().data()),
+        errors_a_(a.errors().data()),
+        errors_b_(b.errors().data()),
+        stride_a_(a.shape().stride()),
+        stride_b_(b.shape().stride()) {}
 
-  StackEntry stack[kStackSize];
-  int top = 0;
-  stack[top++] = {0, 0, 0.25f};
-  while (top > 0) {
-    const StackEntry e = stack[--top];
-    const Quad* qa = nodes_a + e.a * stride_a;
-    const Quad* qb = nodes_b + e.b * stride_b;
-    const __m128i links_a = _mm_load_si128(reinterpret_cast<const __m128i*>(qa));
-    const __m128i links_b = _mm_load_si128(reinterpret_cast<const __m128i*>(qb));
-    const __m128 leaf = _mm_castsi128_ps(
-        _mm_or_si128(_mm_cmpeq_epi32(links_a, zero), _mm_cmpeq_epi32(links_b, zero)));
-    const __m128 leaf_area = _mm_and_ps(leaf, _mm_set1_ps(e.area));
+  // Integral over the cell of nodes (root_a, root_b), whose quadrants have area quadrant_area.
+  Sums run(std::int32_t root_a, std::int32_t root_b, float quadrant_area, int depth = 0) const {
+    if (depth > kMaxTreeLevels) throw std::runtime_error("quadtree deeper than its resolution");
+    __m128 value[GA][C], bound[C];
     for (int c = 0; c < C; ++c) {
-      const __m128 vb = _mm_load_ps(qb[1 + (CB == 1 ? 0 : c)].lane);
-      for (int g = 0; g < GA; ++g) {
-        const __m128 va = _mm_load_ps(qa[1 + g * CA + (CA == 1 ? 0 : c)].lane);
-        acc[g][c] = _mm_add_ps(acc[g][c], _mm_mul_ps(_mm_mul_ps(va, vb), leaf_area));
-      }
-      if constexpr (kBound) {
-        const __m128 va = _mm_load_ps(qa[1 + (CA == 1 ? 0 : c)].lane);
-        const __m128 ea = _mm_load_ps(errors_a[e.a * CA + (CA == 1 ? 0 : c)].lane);
-        const __m128 eb = _mm_load_ps(errors_b[e.b * CB + (CB == 1 ? 0 : c)].lane);
-        const __m128 term = _mm_min_ps(
-            _mm_mul_ps(ea, eb), _mm_min_ps(_mm_mul_ps(ea, abs_ps(vb)), _mm_mul_ps(eb, abs_ps(va))));
-        bound_acc[c] = _mm_add_ps(bound_acc[c], _mm_mul_ps(term, leaf_area));
-      }
+      for (int g = 0; g < GA; ++g) value[g][c] = _mm_setzero_ps();
+      bound[c] = _mm_setzero_ps();
     }
-    int internal = ~_mm_movemask_ps(leaf) & 0xF;
-    if (!internal) continue;
-    if (top + 4 > kStackSize) throw std::runtime_error("quadtree deeper than its resolution");
-    alignas(16) std::int32_t child_a[4], child_b[4];
-    _mm_store_si128(reinterpret_cast<__m128i*>(child_a), links_a);
-    _mm_store_si128(reinterpret_cast<__m128i*>(child_b), links_b);
-    const float child_area = e.area * 0.25f;
-    do {
-      const int q = __builtin_ctz(unsigned(internal));
-      internal &= internal - 1;
-      stack[top++] = {child_a[q], child_b[q], child_area};
-    } while (internal);
+    const Quad* const nodes_a = nodes_a_;
+    const Quad* const nodes_b = nodes_b_;
+    const std::size_t stride_a = stride_a_, stride_b = stride_b_;
+    const __m128i zero = _mm_setzero_si128();
+
+    // Pending pairs as (node a, node b) lanes of 64 bits; the root pair is taken directly.
+    alignas(16) std::int64_t ring[kRing];
+    unsigned head = 0, tail = 0, level_end = 0;
+    float area = quadrant_area;
+    std::int32_t na = root_a, nb = root_b;
+    for (;;) {
+      const Quad* qa = nodes_a + na * stride_a;
+      const Quad* qb = nodes_b + nb * stride_b;
+      const __m128i links_a = _mm_load_si128(reinterpret_cast<const __m128i*>(qa));
+      const __m128i links_b = _mm_load_si128(reinterpret_cast<const __m128i*>(qb));
+      const __m128 leaf = _mm_castsi128_ps(
+          _mm_or_si128(_mm_cmpeq_epi32(links_a, zero), _mm_cmpeq_epi32(links_b, zero)));
+      const __m128 leaf_area = _mm_and_ps(leaf, _mm_set1_ps(area));
+      for (int c = 0; c < C; ++c) {
+        const __m128 vb = _mm_load_ps(qb[1 + (CB == 1 ? 0 : c)].lane);
+        for (int g = 0; g < GA; ++g) {
+          const __m128 va = _mm_load_ps(qa[1 + g * CA + (CA == 1 ? 0 : c)].lane);
+          value[g][c] = _mm_add_ps(value[g][c], _mm_mul_ps(_mm_mul_ps(va, vb), leaf_area));
+        }
+        if constexpr (kBound) {
+          const __m128 va = _mm_load_ps(qa[1 + (CA == 1 ? 0 : c)].lane);
+          const __m128 ea = _mm_load_ps(errors_a_[na * CA + (CA == 1 ? 0 : c)].lane);
+          const __m128 eb = _mm_load_ps(errors_b_[nb * CB + (CB == 1 ? 0 : c)].lane);
+          const __m128 term =
+              _mm_min_ps(_mm_mul_ps(ea, eb),
+                         _mm_min_ps(_mm_mul_ps(ea, abs_ps(vb)), _mm_mul_ps(eb, abs_ps(va))));
+          bound[c] = _mm_add_ps(bound[c], _mm_mul_ps(term, leaf_area));
+        }
+      }
+      const int internal = ~_mm_movemask_ps(leaf) & 0xF;
+      if (internal) enqueue(internal, links_a, links_b, ring, head, tail, area, depth, value, bound);
+      if (head == tail) break;
+      if (head == level_end) {  // the next level starts: quadrants are a quarter the size
+        area *= 0.25f;
+        level_end = tail;
+      }
+      const __m128i pair = _mm_loadl_epi64(reinterpret_cast<const __m128i*>(&ring[head++ & kMask]));
+      na = _mm_cvtsi128_si32(pair);
+      nb = _mm_cvtsi128_si32(_mm_srli_si128(pair, 4));
+    }
+    Sums sums;
+    for (int c = 0; c < C; ++c) {
+      for (int g = 0; g < GA; ++g) sums.value[g][c] = value[g][c];
+      sums.bound[c] = bound[c];
+    }
+    return sums;
   }
-  for (int c = 0; c < C; ++c) {
-    for (int g = 0; g < GA; ++g)
-      value[g][c] = horizontal_sum(acc[g][c]);
-    bound[c] = horizontal_sum(bound_acc[c]);
+
+ private:
+  static constexpr unsigned kRing = 128, kMask = kRing - 1;
+
+  // Queues the internal quadrants of a pair whose quadrants have the given area; when the ring
+  // has no room, descends them in nested calls and adds their sums.
+  [[gnu::always_inline]] void enqueue(int internal, __m128i links_a, __m128i links_b,
+                                      std::int64_t* ring, unsigned head, unsigned& tail,
+                                      float area, int depth, __m128 (&value)[GA][C],
+                                      __m128 (&bound)[C]) const {
+    const __m128i low = _mm_unpacklo_epi32(links_a, links_b);   // (a0 b0) (a1 b1)
+    const __m128i high = _mm_unpackhi_epi32(links_a, links_b);  // (a2 b2) (a3 b3)
+    if (tail - head > kRing - 4) [[unlikely]] {
+      const Sums nested = descend_now(internal, low, high, area * 0.25f, depth + 1);
+      for (int c = 0; c < C; ++c) {
+        for (int g = 0; g < GA; ++g) value[g][c] = _mm_add_ps(value[g][c], nested.value[g][c]);
+        bound[c] = _mm_add_ps(bound[c], nested.bound[c]);
+      }
+      return;
+    }
+    // Branchless enqueue: every quadrant is written, the tail passes internal ones only.
+    auto slot = [&] { return reinterpret_cast<__m128i*>(&ring[tail & kMask]); };
+    _mm_storel_epi64(slot(), low);
+    tail += internal & 1;
+    _mm_storel_epi64(slot(), _mm_srli_si128(low, 8));
+    tail += (internal >> 1) & 1;
+    _mm_storel_epi64(slot(), high);
+    tail += (internal >> 2) & 1;
+    _mm_storel_epi64(slot(), _mm_srli_si128(high, 8));
+    tail += (internal >> 3) & 1;
   }
+
+  // Sums of the internal quadrants' pairs, each descended by its own call.
+  [[gnu::noinline]] Sums descend_now(int internal, __m128i low, __m128i high, float area,
+                                     int depth) const {
+    alignas(16) std::int32_t pairs[8];
+    _mm_store_si128(reinterpret_cast<__m128i*>(pairs), low);
+    _mm_store_si128(reinterpret_cast<__m128i*>(pairs + 4), high);
+    Sums total{};
+    for (int q = 0; q < 4; ++q)
+      if (internal >> q & 1) {
+        const Sums nested = run(pairs[2 * q], pairs[2 * q + 1], area, depth);
+        for (int c = 0; c < C; ++c) {
+          for (int g = 0; g < GA; ++g)
+            total.value[g][c] = _mm_add_ps(total.value[g][c], nested.value[g][c]);
+          total.bound[c] = _mm_add_ps(total.bound[c], nested.bound[c]);
+        }
+      }
+    return total;
+  }
+
+  const Quad* nodes_a_;
+  const Quad* nodes_b_;
+  const Quad* errors_a_;
+  const Quad* errors_b_;
+  std::size_t stride_a_, stride_b_;
+};
+
+template <int CA, int CB, int GA, bool kBound>
+void descend_sse(const QuadtreeView& a, const QuadtreeView& b, float (&value)[GA][4],
+                 float (&bound)[4]) {
+  using Descent = SseDescent<CA, CB, GA, kBound>;
+  const typename Descent::Sums sums = Descent(a, b).run(0, 0, 0.25f);
+  for (int g = 0; g < GA; ++g) store_lane_sums<Descent::C>(sums.value[g], value[g]);
+  if constexpr (kBound) store_lane_sums<Descent::C>(sums.bound, bound);
 }
 
 template <int GA, bool kBound>
-void dispatch_sse(const QuadtreeView& a, const QuadtreeView& b, float (&value)[GA][3],
-                  float (&bound)[3]) {
+void dispatch_sse(const QuadtreeView& a, const QuadtreeView& b, float (&value)[GA][4],
+                  float (&bound)[4]) {
   const int ca = a.shape().channels, cb = b.shape().channels;
   if (ca == 1 && cb == 1) return descend_sse<1, 1, GA, kBound>(a, b, value, bound);
   if (ca == 1) return descend_sse<1, 3, GA, kBound>(a, b, value, bound);
@@ -216,7 +299,7 @@ Convolution convolve(const QuadtreeView& a, const QuadtreeView& b) {
 #if defined(__SSE2__)
   check_compatible(a.shape(), b.shape());
   const int channels = std::max(a.shape().channels, b.shape().channels);
-  float value[1][3] = {}, bound[3] = {};
+  float value[1][4] = {}, bound[4] = {};
   dispatch_sse<1, true>(a, b, value, bound);
   return {to_rgb(value[0], channels), to_rgb(bound, channels)};
 #else
@@ -228,7 +311,7 @@ Rgb convolve_value(const QuadtreeView& a, const QuadtreeView& b) {
 #if defined(__SSE2__)
   check_compatible(a.shape(), b.shape());
   const int channels = std::max(a.shape().channels, b.shape().channels);
-  float value[1][3] = {}, bound[3] = {};
+  float value[1][4] = {}, bound[4] = {};
   dispatch_sse<1, false>(a, b, value, bound);
   return to_rgb(value[0], channels);
 #else
@@ -241,23 +324,23 @@ std::array<Rgb, 3> convolve_groups(const QuadtreeView& a, const QuadtreeView& b)
   const int channels = std::max(a.shape().channels, b.shape().channels);
   std::array<Rgb, 3> result{};
 #if defined(__SSE2__)
-  float bound[3] = {};
+  float bound[4] = {};
   switch (a.shape().groups) {
     case 1: {
-      float value[1][3] = {};
+      float value[1][4] = {};
       dispatch_sse<1, false>(a, b, value, bound);
       result[0] = to_rgb(value[0], channels);
       break;
     }
     case 2: {
-      float value[2][3] = {};
+      float value[2][4] = {};
       dispatch_sse<2, false>(a, b, value, bound);
       for (int g = 0; g < 2; ++g)
         result[g] = to_rgb(value[g], channels);
       break;
     }
     default: {
-      float value[3][3] = {};
+      float value[3][4] = {};
       dispatch_sse<3, false>(a, b, value, bound);
       for (int g = 0; g < 3; ++g)
         result[g] = to_rgb(value[g], channels);

@@ -22,17 +22,40 @@ int log2_of(int n) {
 }
 
 bool all_finite(std::span<const float> values) {
-  // Exponent bits all set means Inf or NaN; an integer OR-reduction vectorises.
-  std::uint32_t bad = 0;
-  for (float v : values) {
-    const auto bits = std::bit_cast<std::uint32_t>(v);
-    bad |= (bits & 0x7f800000u) == 0x7f800000u;
+  // A float is Inf or NaN exactly when its magnitude bits exceed those of FLT_MAX; an unsigned
+  // max-reduction vectorises.
+  std::uint32_t largest = 0;
+  for (const float v : values) {
+    std::uint32_t bits;
+    std::memcpy(&bits, &v, sizeof bits);
+    largest = std::max(largest, bits & 0x7fffffffu);
   }
-  return bad == 0;
+  return largest <= 0x7f7fffffu;
 }
 
-void set_links(Quad& quad, const std::int32_t (&links)[4]) {
-  std::memcpy(&quad, links, sizeof links);
+// Level k-1 from level k (side `fine`): averages of 2 x 2 children, and for bounded planes the
+// error bound max - min + max(child error) (child errors absent at the texel level).
+void build_level(const float* __restrict src, const float* __restrict src_error, int fine,
+                 float* __restrict dst, float* __restrict dst_error) {
+  const int coarse = fine / 2;
+  for (int y = 0; y < coarse; ++y) {
+    const float* __restrict r0 = src + std::size_t(2 * y) * fine;
+    const float* __restrict r1 = r0 + fine;
+    float* __restrict d = dst + std::size_t(y) * coarse;
+    for (int x = 0; x < coarse; ++x)
+      d[x] = ((r0[2 * x] + r0[2 * x + 1]) + (r1[2 * x] + r1[2 * x + 1])) * 0.25f;
+    if (!dst_error) continue;
+    float* __restrict de = dst_error + std::size_t(y) * coarse;
+    for (int x = 0; x < coarse; ++x) {
+      const float a = r0[2 * x], b = r0[2 * x + 1], c = r1[2 * x], e = r1[2 * x + 1];
+      de[x] = std::max(std::max(a, b), std::max(c, e)) - std::min(std::min(a, b), std::min(c, e));
+    }
+    if (!src_error) continue;
+    const float* __restrict e0 = src_error + std::size_t(2 * y) * fine;
+    const float* __restrict e1 = e0 + fine;
+    for (int x = 0; x < coarse; ++x)
+      de[x] += std::max(std::max(e0[2 * x], e0[2 * x + 1]), std::max(e1[2 * x], e1[2 * x + 1]));
+  }
 }
 
 }  // namespace
@@ -80,92 +103,93 @@ void QuadtreeProjector::project(const Grid& grid, const ProjectionOptions& optio
   const int channels = grid.channels;
   const int planes = channels * grid.groups;
 
-  // Scratch levels 0 .. levels-1; level `levels` is the grid itself (error 0).
-  level_offset_.assign(levels + 1, 0);
+  // Scratch levels 0 .. levels-1; level `levels` is the grid itself (error 0). Pointers to
+  // every plane of every level, values for all planes, errors for group 0.
   std::size_t total = 0;
-  for (int k = 0; k < levels; ++k) {
-    level_offset_[k] = total;
+  for (int k = 0; k < levels; ++k)
     total += std::size_t(1) << (2 * k);
-  }
   values_.resize(total * planes);
   errors_.resize(total * channels);
-  auto value_plane = [&](int k, int p) -> const float* {
-    if (k == levels) return grid.texels.data() + std::size_t(p) * grid.plane_size();
-    return values_.data() + level_offset_[k] * planes + (std::size_t(p) << (2 * k));
-  };
-  auto error_plane = [&](int k, int c) -> const float* {
-    return errors_.data() + level_offset_[k] * channels + (std::size_t(c) << (2 * k));
-  };
+  value_planes_.assign(std::size_t(levels + 1) * planes, nullptr);
+  error_planes_.assign(std::size_t(levels + 1) * channels, nullptr);
+  std::size_t offset = 0;
+  for (int k = 0; k < levels; ++k) {
+    const std::size_t cells = std::size_t(1) << (2 * k);
+    for (int p = 0; p < planes; ++p)
+      value_planes_[k * planes + p] = values_.data() + (offset * planes + p * cells);
+    for (int c = 0; c < channels; ++c)
+      error_planes_[k * channels + c] = errors_.data() + (offset * channels + c * cells);
+    offset += cells;
+  }
+  for (int p = 0; p < planes; ++p)
+    value_planes_[levels * planes + p] =
+        const_cast<float*>(grid.texels.data()) + p * grid.plane_size();
 
   // Bottom-up: averages of the four children, and the error bound of section 2.2.
-  for (int k = levels; k >= 1; --k) {
-    const int fine = 1 << k, coarse = fine / 2;
-    for (int p = 0; p < planes; ++p) {
-      const float* src = value_plane(k, p);
-      float* dst = const_cast<float*>(value_plane(k - 1, p));
-      const bool bounded = p < channels;  // group 0
-      const float* src_err = bounded && k < levels ? error_plane(k, p) : nullptr;
-      float* dst_err = bounded ? const_cast<float*>(error_plane(k - 1, p)) : nullptr;
-      for (int y = 0; y < coarse; ++y) {
-        const float* r0 = src + std::size_t(2 * y) * fine;
-        const float* r1 = r0 + fine;
-        float* d = dst + std::size_t(y) * coarse;
-        for (int x = 0; x < coarse; ++x) {
-          const float a = r0[2 * x], b = r0[2 * x + 1], c = r1[2 * x], e = r1[2 * x + 1];
-          d[x] = ((a + b) + (c + e)) * 0.25f;
-        }
-        if (!bounded) continue;
-        float* de = dst_err + std::size_t(y) * coarse;
-        for (int x = 0; x < coarse; ++x) {
-          const float a = r0[2 * x], b = r0[2 * x + 1], c = r1[2 * x], e = r1[2 * x + 1];
-          de[x] =
-              std::max(std::max(a, b), std::max(c, e)) - std::min(std::min(a, b), std::min(c, e));
-        }
-        if (!src_err) continue;
-        const float* e0 = src_err + std::size_t(2 * y) * fine;
-        const float* e1 = e0 + fine;
-        for (int x = 0; x < coarse; ++x)
-          de[x] += std::max(std::max(e0[2 * x], e0[2 * x + 1]), std::max(e1[2 * x], e1[2 * x + 1]));
-      }
-    }
-  }
+  for (int k = levels; k >= 1; --k)
+    for (int p = 0; p < planes; ++p)
+      build_level(value_planes_[k * planes + p],
+                  p < channels && k < levels ? error_planes_[k * channels + p] : nullptr, 1 << k,
+                  value_planes_[(k - 1) * planes + p],
+                  p < channels ? error_planes_[(k - 1) * channels + p] : nullptr);
 
   std::vector<double> means(channels);
   for (int c = 0; c < channels; ++c)
-    means[c] = value_plane(0, c)[0];
+    means[c] = value_planes_[c][0];
   const std::vector<float> tol = absolute_tolerances(options, means);
 
-  // Top-down cut, emitting nodes in depth-first pre-order.
+  // Top-down cut, emitting nodes in depth-first pre-order with an explicit stack of cells still
+  // to emit and the parent link each one fills.
   out.shape = QuadtreeShape{n, channels, grid.groups};
-  const int stride = out.shape.stride();
-  out.nodes.clear();
-  out.errors.clear();
-
-  auto emit = [&](auto&& self, int k, int x, int y) -> std::int32_t {
-    const auto node = std::int32_t(out.nodes.size() / stride);
-    out.nodes.resize(out.nodes.size() + stride);
-    out.errors.resize(out.errors.size() + channels);
-    const int side = 1 << (k + 1);
-    const bool texel_level = k + 1 == levels;
-    bool refine[4] = {};
-    for (int q = 0; q < 4; ++q) {
-      const std::size_t cell = std::size_t(2 * y + (q >> 1)) * side + (2 * x + (q & 1));
-      for (int p = 0; p < planes; ++p)
-        out.nodes[std::size_t(node) * stride + 1 + p].lane[q] = value_plane(k + 1, p)[cell];
-      for (int c = 0; c < channels; ++c) {
-        const float err = texel_level ? 0.0f : error_plane(k + 1, c)[cell];
-        out.errors[std::size_t(node) * channels + c].lane[q] = err;
-        refine[q] |= err > tol[c];
-      }
-      refine[q] &= k + 1 < max_depth;
+  const std::size_t stride = out.shape.stride();
+  std::size_t count = 0;
+  pending_.clear();
+  pending_.push_back({0, 0, 0, -1, 0});
+  while (!pending_.empty()) {
+    const PendingCell cell = pending_.back();
+    pending_.pop_back();
+    const auto node = std::int32_t(count++);
+    if (count * stride > out.nodes.size()) {
+      out.nodes.resize(std::max<std::size_t>(2 * out.nodes.size(), 16 * stride));
+      out.errors.resize(out.nodes.size() / stride * channels);
     }
-    std::int32_t links[4] = {};
-    for (int q = 0; q < 4; ++q)
-      if (refine[q]) links[q] = self(self, k + 1, 2 * x + (q & 1), 2 * y + (q >> 1));
-    set_links(out.nodes[std::size_t(node) * stride], links);
-    return node;
-  };
-  emit(emit, 0, 0, 0);
+    Quad* quads = &out.nodes[node * stride];
+    Quad* errors = &out.errors[node * channels];
+    if (cell.parent >= 0) {
+      std::int32_t* parent_links =
+          reinterpret_cast<std::int32_t*>(&out.nodes[cell.parent * stride]);
+      std::memcpy(parent_links + cell.quadrant, &node, sizeof node);
+    }
+    // Quadrants are the 2 x 2 cells (2x .. 2x+1, 2y .. 2y+1) of the next level.
+    const int k = cell.level + 1, side = 1 << k;
+    const std::size_t row0 = std::size_t(2 * cell.y) * side + 2 * cell.x, row1 = row0 + side;
+    for (int p = 0; p < planes; ++p) {
+      const float* src = value_planes_[k * planes + p];
+      std::memcpy(quads[1 + p].lane, src + row0, 2 * sizeof(float));
+      std::memcpy(quads[1 + p].lane + 2, src + row1, 2 * sizeof(float));
+    }
+    int refine = 0;
+    for (int c = 0; c < channels; ++c) {
+      if (k == levels) {
+        errors[c] = Quad{};
+        continue;
+      }
+      const float* src = error_planes_[k * channels + c];
+      std::memcpy(errors[c].lane, src + row0, 2 * sizeof(float));
+      std::memcpy(errors[c].lane + 2, src + row1, 2 * sizeof(float));
+      for (int q = 0; q < 4; ++q)
+        refine |= int(errors[c].lane[q] > tol[c]) << q;
+    }
+    if (k >= max_depth) refine = 0;
+    const std::int32_t no_children[4] = {0, 0, 0, 0};
+    std::memcpy(&quads[0], no_children, sizeof no_children);
+    // Push in reverse so that quadrant 0's subtree is emitted first.
+    for (int q = 3; q >= 0; --q)
+      if (refine >> q & 1)
+        pending_.push_back({k, 2 * cell.x + (q & 1), 2 * cell.y + (q >> 1), node, q});
+  }
+  out.nodes.resize(count * stride);
+  out.errors.resize(count * channels);
 }
 
 Quadtree project(const Grid& grid, const ProjectionOptions& options) {

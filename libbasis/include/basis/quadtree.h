@@ -97,9 +97,16 @@ class QuadtreeProjector {
   void project(const Grid& grid, const ProjectionOptions& options, Quadtree& out);
 
  private:
-  std::vector<float> values_;  // every level, coarse to fine, planar per group and channel
-  std::vector<float> errors_;  // every level, group 0 only
-  std::vector<std::size_t> level_offset_;
+  struct PendingCell {
+    int level, x, y;
+    std::int32_t parent;  // node whose link to fill, -1 for the root
+    int quadrant;
+  };
+  std::vector<float> values_;  // levels 0 .. log2(N)-1, planar per group and channel
+  std::vector<float> errors_;  // the same levels, group 0 only
+  std::vector<float*> value_planes_;
+  std::vector<float*> error_planes_;
+  std::vector<PendingCell> pending_;
 };
 
 // Convenience wrapper around a temporary QuadtreeProjector.
