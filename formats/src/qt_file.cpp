@@ -1,0 +1,409 @@
+#include "basis/qt_file.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <string>
+
+#include "basis_generated.h"
+
+namespace basis {
+
+namespace fb = basis::format;
+
+static_assert(sizeof(Quad) == sizeof(fb::Quad) && alignof(Quad) == alignof(fb::Quad));
+static_assert(sizeof(TreeExtent) == sizeof(fb::TreeExtent));
+static_assert(sizeof(Point3) == sizeof(fb::Vec3) && alignof(Point3) == alignof(fb::Vec3));
+
+const char* to_string(QtKind kind) {
+  switch (kind) {
+    case QtKind::tree:
+      return "tree";
+    case QtKind::brdf_table:
+      return "brdf-table";
+    case QtKind::capture_set:
+      return "capture-set";
+  }
+  return "unknown";
+}
+
+namespace {
+
+[[noreturn]] void fail(const std::string& name, const std::string& problem) {
+  throw FileError(name + ": " + problem);
+}
+
+template <typename T, typename F>
+std::span<const T> as_span(const flatbuffers::Vector<const F*>* v) {
+  if (!v) return {};
+  return {reinterpret_cast<const T*>(v->Data()), v->size()};
+}
+
+bool all_finite(std::span<const Quad> quads) {
+  std::uint32_t largest = 0;
+  for (const Quad& q : quads)
+    for (float v : q.lane) {
+      std::uint32_t bits;
+      std::memcpy(&bits, &v, sizeof bits);
+      largest = std::max(largest, bits & 0x7fffffffu);
+    }
+  return largest <= 0x7f7fffffu;
+}
+
+bool finite_unit_frames(std::span<const Point3> values, bool unit) {
+  for (const Point3& p : values) {
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) return false;
+    if (unit && std::abs(p[0] * p[0] + p[1] * p[1] + p[2] * p[2] - 1) > 1e-3) return false;
+  }
+  return true;
+}
+
+// Child links, depths and values of one tree; returns an empty string or the problem.
+std::string check_tree(const QuadtreeView& tree, int levels, std::vector<std::uint8_t>& depth) {
+  const int count = tree.node_count();
+  if (count < 1) return "a tree has no nodes";
+  depth.assign(count, 0xff);
+  depth[0] = 0;
+  for (int node = 0; node < count; ++node) {
+    if (depth[node] == 0xff) return "node " + std::to_string(node) + " is unreachable";
+    for (int q = 0; q < 4; ++q) {
+      const std::int32_t child = tree.child(node, q);
+      if (child == 0) continue;
+      if (child <= node || child >= count)
+        return "node " + std::to_string(node) + " links to node " + std::to_string(child) +
+               " (children must follow their parent, " + std::to_string(count) + " nodes)";
+      if (depth[child] != 0xff) return "node " + std::to_string(child) + " has two parents";
+      depth[child] = std::uint8_t(depth[node] + 1);
+      if (depth[child] >= levels)
+        return "tree deeper than its resolution allows (" + std::to_string(levels) + " levels)";
+    }
+  }
+  return {};
+}
+
+void read_whole_file(const std::string& path, std::vector<Quad>& storage, std::size_t& size) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) fail(path, std::strerror(errno));
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) {
+    const int e = errno;
+    ::close(fd);
+    fail(path, std::strerror(e));
+  }
+  if (S_ISDIR(st.st_mode)) {
+    ::close(fd);
+    fail(path, "is a directory, not a .qt file");
+  }
+  if (!S_ISREG(st.st_mode)) {
+    ::close(fd);
+    fail(path, "is not a regular file");
+  }
+  if (std::uint64_t(st.st_size) > kQtMaxFileBytes) {
+    ::close(fd);
+    fail(path, "file of " + std::to_string(st.st_size) + " bytes exceeds the 2 GiB format limit");
+  }
+  size = std::size_t(st.st_size);
+  storage.assign((size + sizeof(Quad) - 1) / sizeof(Quad), Quad{});
+  auto* out = reinterpret_cast<char*>(storage.data());
+  std::size_t done = 0;
+  while (done < size) {
+    const ssize_t n = ::read(fd, out + done, size - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const int e = errno;
+      ::close(fd);
+      fail(path, n == 0 ? "file shrank while being read" : std::strerror(e));
+    }
+    done += std::size_t(n);
+  }
+  ::close(fd);
+}
+
+}  // namespace
+
+QtFile QtFile::load(const std::string& path) {
+  QtFile file;
+  file.name_ = path;
+  read_whole_file(path, file.storage_, file.size_);
+  file.verify();
+  return file;
+}
+
+QtFile QtFile::from_bytes(std::span<const std::byte> bytes, const std::string& name) {
+  QtFile file;
+  file.name_ = name;
+  if (bytes.size() > kQtMaxFileBytes) fail(name, "buffer exceeds the 2 GiB format limit");
+  file.size_ = bytes.size();
+  file.storage_.assign((bytes.size() + sizeof(Quad) - 1) / sizeof(Quad), Quad{});
+  if (!bytes.empty()) std::memcpy(file.storage_.data(), bytes.data(), bytes.size());
+  file.verify();
+  return file;
+}
+
+void QtFile::verify() {
+  const auto* bytes = reinterpret_cast<const std::uint8_t*>(buffer());
+  if (size_ == 0) fail(name_, "empty file, not a .qt file");
+  if (size_ < 8 || !fb::FileBufferHasIdentifier(bytes))
+    fail(name_, "not a .qt file (no BQTF identifier)");
+  flatbuffers::Verifier verifier(bytes, size_);
+  if (!fb::VerifyFileBuffer(verifier))
+    fail(name_, "corrupt or truncated .qt file (structure check failed)");
+  const fb::File* root = fb::GetFile(bytes);
+  version_ = root->format_version();
+  if (version_ > kQtFormatVersion)
+    fail(name_, "format version " + std::to_string(version_) +
+                    " is newer than this build reads (" + std::to_string(kQtFormatVersion) + ")");
+  if (version_ == 0) fail(name_, "format version 0 is not a valid .qt version");
+  if (root->mapping() != fb::Mapping::CosineConcentric)
+    fail(name_, "unknown mapping " + std::to_string(int(root->mapping())));
+  switch (root->kind()) {
+    case fb::Kind::Tree:
+      kind_ = QtKind::tree;
+      break;
+    case fb::Kind::BrdfTable:
+      kind_ = QtKind::brdf_table;
+      break;
+    case fb::Kind::CaptureSet:
+      kind_ = QtKind::capture_set;
+      break;
+    default:
+      fail(name_, "unknown content kind " + std::to_string(int(root->kind())));
+  }
+
+  const fb::TreeSet* set = root->trees();
+  if (!set) fail(name_, "no trees");
+  const QuadtreeShape shape{set->resolution(), set->channels(), set->groups()};
+  if (!is_valid_resolution(shape.resolution))
+    fail(name_, "resolution " + std::to_string(shape.resolution) +
+                    " is not a power of two from 2 to 512");
+  if (shape.channels != 1 && shape.channels != 3)
+    fail(name_, std::to_string(shape.channels) + " channels (1 or 3 expected)");
+  if (shape.groups < 1 || shape.groups > 3)
+    fail(name_, std::to_string(shape.groups) + " channel groups (1 to 3 expected)");
+  const int levels = std::countr_zero(unsigned(shape.resolution));
+  projection_.tolerance = set->tolerance();
+  if (!std::isfinite(projection_.tolerance) || projection_.tolerance < 0)
+    fail(name_, "tolerance is not a finite number >= 0");
+  if (set->tolerance_mode() != fb::ToleranceMode::Relative &&
+      set->tolerance_mode() != fb::ToleranceMode::Absolute)
+    fail(name_, "unknown tolerance mode");
+  projection_.mode = set->tolerance_mode() == fb::ToleranceMode::Relative
+                         ? ProjectionOptions::Mode::relative
+                         : ProjectionOptions::Mode::absolute;
+  projection_.max_depth = set->max_depth();
+  if (projection_.max_depth < 0 || projection_.max_depth > levels)
+    fail(name_, "max depth " + std::to_string(projection_.max_depth) + " outside 0.." +
+                    std::to_string(levels));
+
+  const auto extents = as_span<TreeExtent>(set->extents());
+  const auto nodes = as_span<Quad>(set->nodes());
+  const auto errors = as_span<Quad>(set->errors());
+  if (extents.empty()) fail(name_, "no trees");
+  std::uint64_t total = 0;
+  for (const TreeExtent& e : extents) {
+    if (e.first_node != total) fail(name_, "tree extents are not contiguous");
+    if (e.node_count == 0) fail(name_, "a tree has no nodes");
+    total += e.node_count;
+  }
+  if (nodes.size() != total * shape.stride())
+    fail(name_, "node data hold " + std::to_string(nodes.size()) + " quads, " +
+                    std::to_string(total * shape.stride()) + " expected");
+  if (errors.size() != total * shape.channels)
+    fail(name_, "error bounds hold " + std::to_string(errors.size()) + " quads, " +
+                    std::to_string(total * shape.channels) + " expected");
+  trees_ = TreeSetView(shape, extents, nodes, errors);
+
+  // Values and bounds: finite, bounds non-negative. Link quads are checked as links below.
+  std::vector<std::uint8_t> depth;
+  for (std::size_t i = 0; i < trees_.size(); ++i) {
+    const QuadtreeView tree = trees_.tree(i);
+    if (const std::string problem = check_tree(tree, levels, depth); !problem.empty())
+      fail(name_, "tree " + std::to_string(i) + ": " + problem);
+  }
+  for (std::size_t n = 0; n < total; ++n)
+    if (!all_finite(nodes.subspan(n * shape.stride() + 1, shape.stride() - 1)))
+      fail(name_, "node " + std::to_string(n) + " holds a NaN or infinite value");
+  if (!all_finite(errors)) fail(name_, "an error bound is NaN or infinite");
+  for (const Quad& q : errors)
+    for (float e : q.lane)
+      if (e < 0) fail(name_, "an error bound is negative");
+
+  if (kind_ == QtKind::tree && trees_.size() != 1)
+    fail(name_, "a single-tree file holds " + std::to_string(trees_.size()) + " trees");
+  if (kind_ == QtKind::brdf_table) {
+    const fb::BrdfTable* table = root->brdf_table();
+    if (!table) fail(name_, "BRDF table parameters are missing");
+    wo_resolution_ = table->wo_resolution();
+    if (wo_resolution_ < 2 || wo_resolution_ > kQtMaxWoResolution)
+      fail(name_, "outgoing-direction resolution " + std::to_string(wo_resolution_) +
+                      " outside 2.." + std::to_string(kQtMaxWoResolution));
+    if (trees_.size() != std::size_t(wo_resolution_) * wo_resolution_)
+      fail(name_, "BRDF table of " + std::to_string(wo_resolution_) + "^2 entries holds " +
+                      std::to_string(trees_.size()) + " trees");
+  }
+  if (kind_ == QtKind::capture_set) {
+    const fb::CaptureSet* set_info = root->capture_set();
+    if (!set_info) fail(name_, "capture positions are missing");
+    captures_.positions = as_span<Point3>(set_info->positions());
+    captures_.normals = as_span<Point3>(set_info->normals());
+    captures_.tangents = as_span<Point3>(set_info->tangents());
+    captures_.trees = trees_;
+    if (captures_.positions.size() != trees_.size() ||
+        captures_.normals.size() != trees_.size() || captures_.tangents.size() != trees_.size())
+      fail(name_, "capture positions, normals and tangents do not match the " +
+                      std::to_string(trees_.size()) + " trees");
+    if (!finite_unit_frames(captures_.positions, false))
+      fail(name_, "a capture position is NaN or infinite");
+    if (!finite_unit_frames(captures_.normals, true) ||
+        !finite_unit_frames(captures_.tangents, true))
+      fail(name_, "a capture normal or tangent is not a unit vector");
+    for (std::size_t i = 0; i < captures_.size(); ++i) {
+      const Point3& n = captures_.normals[i];
+      const Point3& t = captures_.tangents[i];
+      if (std::abs(n[0] * t[0] + n[1] * t[1] + n[2] * t[2]) > 1e-3)
+        fail(name_, "capture " + std::to_string(i) + ": tangent is not orthogonal to the normal");
+    }
+  }
+}
+
+BrdfTableView QtFile::brdf_table() const {
+  if (kind_ != QtKind::brdf_table) fail(name_, std::string("holds a ") + to_string(kind_) +
+                                                   ", not a BRDF table");
+  return {wo_resolution_, trees_};
+}
+
+std::string QtFile::brdf_model() const {
+  const auto* table = fb::GetFile(buffer())->brdf_table();
+  return table && table->model() ? table->model()->str() : std::string();
+}
+
+std::string QtFile::brdf_spec() const {
+  const auto* table = fb::GetFile(buffer())->brdf_table();
+  return table && table->spec() ? table->spec()->str() : std::string();
+}
+
+CaptureSetView QtFile::captures() const {
+  if (kind_ != QtKind::capture_set)
+    fail(name_, std::string("holds a ") + to_string(kind_) + ", not a capture set");
+  return captures_;
+}
+
+Provenance QtFile::provenance() const {
+  Provenance p;
+  const fb::Provenance* fp = fb::GetFile(buffer())->provenance();
+  if (!fp) return p;
+  if (fp->tool()) p.tool = fp->tool()->str();
+  if (fp->tool_version()) p.tool_version = fp->tool_version()->str();
+  if (fp->parameters()) p.parameters = fp->parameters()->str();
+  if (fp->sources())
+    for (const auto* s : *fp->sources()) p.sources.push_back(s->str());
+  return p;
+}
+
+namespace {
+
+flatbuffers::Offset<fb::TreeSet> build_tree_set(flatbuffers::FlatBufferBuilder& b,
+                                                const TreeSetView& trees,
+                                                const ProjectionOptions& projection) {
+  const auto extents = b.CreateVectorOfStructs(
+      reinterpret_cast<const fb::TreeExtent*>(trees.extents().data()), trees.extents().size());
+  const auto nodes = b.CreateVectorOfStructs(
+      reinterpret_cast<const fb::Quad*>(trees.nodes().data()), trees.nodes().size());
+  const auto errors = b.CreateVectorOfStructs(
+      reinterpret_cast<const fb::Quad*>(trees.errors().data()), trees.errors().size());
+  const QuadtreeShape& s = trees.shape();
+  return fb::CreateTreeSet(b, s.resolution, s.channels, s.groups, projection.tolerance,
+                           projection.mode == ProjectionOptions::Mode::relative
+                               ? fb::ToleranceMode::Relative
+                               : fb::ToleranceMode::Absolute,
+                           projection.max_depth, extents, nodes, errors);
+}
+
+flatbuffers::Offset<fb::Provenance> build_provenance(flatbuffers::FlatBufferBuilder& b,
+                                                     const Provenance& p) {
+  std::vector<flatbuffers::Offset<flatbuffers::String>> sources;
+  for (const std::string& s : p.sources) sources.push_back(b.CreateString(s));
+  return fb::CreateProvenance(b, b.CreateString(p.tool), b.CreateString(p.tool_version),
+                              b.CreateString(p.parameters), b.CreateVector(sources));
+}
+
+std::vector<std::byte> finish(flatbuffers::FlatBufferBuilder& b, fb::Kind kind,
+                              flatbuffers::Offset<fb::TreeSet> trees,
+                              flatbuffers::Offset<fb::BrdfTable> table,
+                              flatbuffers::Offset<fb::CaptureSet> captures,
+                              flatbuffers::Offset<fb::Provenance> provenance) {
+  const auto root = fb::CreateFile(b, kQtFormatVersion, kind, fb::Mapping::CosineConcentric, trees,
+                                   table, captures, provenance);
+  fb::FinishFileBuffer(b, root);
+  const auto* data = reinterpret_cast<const std::byte*>(b.GetBufferPointer());
+  return {data, data + b.GetSize()};
+}
+
+void check_encodable(const TreeSetView& trees) {
+  if (trees.size() == 0) throw std::invalid_argument("nothing to encode: no trees");
+  if (trees.nodes().size_bytes() + trees.errors().size_bytes() > kQtMaxFileBytes)
+    throw std::invalid_argument("trees exceed the 2 GiB limit of one .qt file");
+}
+
+}  // namespace
+
+std::vector<std::byte> encode_tree(const QuadtreeView& tree, const ProjectionOptions& projection,
+                                   const Provenance& provenance) {
+  const TreeExtent extent{0, std::uint32_t(tree.node_count())};
+  const TreeSetView set(tree.shape(), {&extent, 1}, tree.nodes(), tree.errors());
+  check_encodable(set);
+  flatbuffers::FlatBufferBuilder b(tree.nodes().size_bytes() + tree.errors().size_bytes() + 1024);
+  const auto trees = build_tree_set(b, set, projection);
+  const auto prov = build_provenance(b, provenance);
+  return finish(b, fb::Kind::Tree, trees, 0, 0, prov);
+}
+
+std::vector<std::byte> encode_brdf_table(const BrdfTableView& table, const std::string& model,
+                                         const std::string& spec,
+                                         const ProjectionOptions& projection,
+                                         const Provenance& provenance) {
+  check_encodable(table.trees);
+  if (table.trees.size() != std::size_t(table.wo_resolution) * table.wo_resolution)
+    throw std::invalid_argument("BRDF table entries do not match its resolution");
+  flatbuffers::FlatBufferBuilder b(table.trees.nodes().size_bytes() +
+                                   table.trees.errors().size_bytes() + 4096);
+  const auto trees = build_tree_set(b, table.trees, projection);
+  const auto info =
+      fb::CreateBrdfTable(b, table.wo_resolution, b.CreateString(model), b.CreateString(spec));
+  const auto prov = build_provenance(b, provenance);
+  return finish(b, fb::Kind::BrdfTable, trees, info, 0, prov);
+}
+
+std::vector<std::byte> encode_capture_set(const CaptureSetView& captures,
+                                          const ProjectionOptions& projection,
+                                          const Provenance& provenance) {
+  check_encodable(captures.trees);
+  if (captures.positions.size() != captures.trees.size() ||
+      captures.normals.size() != captures.trees.size() ||
+      captures.tangents.size() != captures.trees.size())
+    throw std::invalid_argument("capture positions, normals and tangents do not match the trees");
+  flatbuffers::FlatBufferBuilder b(captures.trees.nodes().size_bytes() +
+                                   captures.trees.errors().size_bytes() +
+                                   captures.size() * 3 * sizeof(Point3) + 4096);
+  const auto trees = build_tree_set(b, captures.trees, projection);
+  auto points = [&](std::span<const Point3> v) {
+    return b.CreateVectorOfStructs(reinterpret_cast<const fb::Vec3*>(v.data()), v.size());
+  };
+  const auto positions = points(captures.positions);
+  const auto normals = points(captures.normals);
+  const auto tangents = points(captures.tangents);
+  const auto info = fb::CreateCaptureSet(b, positions, normals, tangents);
+  const auto prov = build_provenance(b, provenance);
+  return finish(b, fb::Kind::CaptureSet, trees, 0, info, prov);
+}
+
+void write_qt(const std::string& path, std::span<const std::byte> encoded) {
+  write_file_atomically(path, encoded);
+}
+
+}  // namespace basis
