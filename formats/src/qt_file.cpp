@@ -1,6 +1,7 @@
 #include "basis/qt_file.h"
 
 #include <fcntl.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -9,6 +10,7 @@
 #include <cmath>
 #include <cstring>
 #include <string>
+#include <utility>
 
 #include "basis_generated.h"
 
@@ -55,6 +57,19 @@ bool all_finite(std::span<const Quad> quads) {
   return largest <= 0x7f7fffffu;
 }
 
+// All value quads (every quad but each node's first, the links) are finite.
+bool values_finite(std::span<const Quad> nodes, std::size_t stride) {
+  std::uint32_t largest = 0;
+  for (std::size_t n = 0; n < nodes.size(); n += stride)
+    for (std::size_t k = 1; k < stride; ++k)
+      for (float v : nodes[n + k].lane) {
+        std::uint32_t bits;
+        std::memcpy(&bits, &v, sizeof bits);
+        largest = std::max(largest, bits & 0x7fffffffu);
+      }
+  return largest <= 0x7f7fffffu;
+}
+
 bool finite_unit_frames(std::span<const Point3> values, bool unit) {
   for (const Point3& p : values) {
     if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) return false;
@@ -86,7 +101,8 @@ std::string check_tree(const QuadtreeView& tree, int levels, std::vector<std::ui
   return {};
 }
 
-void read_whole_file(const std::string& path, std::vector<Quad>& storage, std::size_t& size) {
+// Opens a regular file of at most the format's size; returns its descriptor and size.
+std::pair<int, std::size_t> open_regular_file(const std::string& path) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) fail(path, std::strerror(errno));
   struct stat st {};
@@ -95,41 +111,68 @@ void read_whole_file(const std::string& path, std::vector<Quad>& storage, std::s
     ::close(fd);
     fail(path, std::strerror(e));
   }
-  if (S_ISDIR(st.st_mode)) {
+  std::string problem;
+  if (S_ISDIR(st.st_mode))
+    problem = "is a directory, not a .qt file";
+  else if (!S_ISREG(st.st_mode))
+    problem = "is not a regular file";
+  else if (std::uint64_t(st.st_size) > kQtMaxFileBytes)
+    problem = "file of " + std::to_string(st.st_size) + " bytes exceeds the 2 GiB format limit";
+  if (!problem.empty()) {
     ::close(fd);
-    fail(path, "is a directory, not a .qt file");
+    fail(path, problem);
   }
-  if (!S_ISREG(st.st_mode)) {
-    ::close(fd);
-    fail(path, "is not a regular file");
-  }
-  if (std::uint64_t(st.st_size) > kQtMaxFileBytes) {
-    ::close(fd);
-    fail(path, "file of " + std::to_string(st.st_size) + " bytes exceeds the 2 GiB format limit");
-  }
-  size = std::size_t(st.st_size);
-  storage.assign((size + sizeof(Quad) - 1) / sizeof(Quad), Quad{});
-  auto* out = reinterpret_cast<char*>(storage.data());
-  std::size_t done = 0;
-  while (done < size) {
-    const ssize_t n = ::read(fd, out + done, size - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) {
-      const int e = errno;
-      ::close(fd);
-      fail(path, n == 0 ? "file shrank while being read" : std::strerror(e));
-    }
-    done += std::size_t(n);
-  }
-  ::close(fd);
+  return {fd, std::size_t(st.st_size)};
 }
 
 }  // namespace
 
+QtFile::Buffer& QtFile::Buffer::operator=(Buffer&& other) noexcept {
+  if (this != &other) {
+    this->~Buffer();
+    data_ = std::exchange(other.data_, nullptr);
+    mapped_size_ = std::exchange(other.mapped_size_, 0);
+    copy_ = std::move(other.copy_);
+  }
+  return *this;
+}
+
+QtFile::Buffer::~Buffer() {
+  if (mapped_size_) ::munmap(data_, mapped_size_);
+  data_ = nullptr;
+  mapped_size_ = 0;
+}
+
+QtFile::Buffer QtFile::Buffer::map_file(int fd, std::size_t size) {
+  Buffer b;
+  if (size == 0) return b;
+  void* p = ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd, 0);
+  if (p == MAP_FAILED) return b;
+  b.data_ = p;
+  b.mapped_size_ = size;
+  return b;
+}
+
+QtFile::Buffer QtFile::Buffer::copy_of(std::span<const std::byte> bytes) {
+  Buffer b;
+  b.copy_ =
+      std::make_unique_for_overwrite<Quad[]>((bytes.size() + sizeof(Quad) - 1) / sizeof(Quad));
+  if (!bytes.empty()) std::memcpy(b.copy_.get(), bytes.data(), bytes.size());
+  b.data_ = b.copy_.get();
+  return b;
+}
+
 QtFile QtFile::load(const std::string& path) {
   QtFile file;
   file.name_ = path;
-  read_whole_file(path, file.storage_, file.size_);
+  const auto [fd, size] = open_regular_file(path);
+  file.size_ = size;
+  // A read-only map of the page cache: the trees are convolved where they lie (zero copy).
+  file.storage_ = Buffer::map_file(fd, size);
+  const int map_error = errno;
+  ::close(fd);
+  if (size > 0 && !file.storage_.data())
+    fail(path, std::string("cannot map: ") + std::strerror(map_error));
   file.verify();
   return file;
 }
@@ -139,8 +182,7 @@ QtFile QtFile::from_bytes(std::span<const std::byte> bytes, const std::string& n
   file.name_ = name;
   if (bytes.size() > kQtMaxFileBytes) fail(name, "buffer exceeds the 2 GiB format limit");
   file.size_ = bytes.size();
-  file.storage_.assign((bytes.size() + sizeof(Quad) - 1) / sizeof(Quad), Quad{});
-  if (!bytes.empty()) std::memcpy(file.storage_.data(), bytes.data(), bytes.size());
+  file.storage_ = Buffer::copy_of(bytes);
   file.verify();
   return file;
 }
@@ -156,8 +198,8 @@ void QtFile::verify() {
   const fb::File* root = fb::GetFile(bytes);
   version_ = root->format_version();
   if (version_ > kQtFormatVersion)
-    fail(name_, "format version " + std::to_string(version_) +
-                    " is newer than this build reads (" + std::to_string(kQtFormatVersion) + ")");
+    fail(name_, "format version " + std::to_string(version_) + " is newer than this build reads (" +
+                    std::to_string(kQtFormatVersion) + ")");
   if (version_ == 0) fail(name_, "format version 0 is not a valid .qt version");
   if (root->mapping() != fb::Mapping::CosineConcentric)
     fail(name_, "unknown mapping " + std::to_string(int(root->mapping())));
@@ -179,8 +221,8 @@ void QtFile::verify() {
   if (!set) fail(name_, "no trees");
   const QuadtreeShape shape{set->resolution(), set->channels(), set->groups()};
   if (!is_valid_resolution(shape.resolution))
-    fail(name_, "resolution " + std::to_string(shape.resolution) +
-                    " is not a power of two from 2 to 512");
+    fail(name_,
+         "resolution " + std::to_string(shape.resolution) + " is not a power of two from 2 to 512");
   if (shape.channels != 1 && shape.channels != 3)
     fail(name_, std::to_string(shape.channels) + " channels (1 or 3 expected)");
   if (shape.groups < 1 || shape.groups > 3)
@@ -225,9 +267,7 @@ void QtFile::verify() {
     if (const std::string problem = check_tree(tree, levels, depth); !problem.empty())
       fail(name_, "tree " + std::to_string(i) + ": " + problem);
   }
-  for (std::size_t n = 0; n < total; ++n)
-    if (!all_finite(nodes.subspan(n * shape.stride() + 1, shape.stride() - 1)))
-      fail(name_, "node " + std::to_string(n) + " holds a NaN or infinite value");
+  if (!values_finite(nodes, shape.stride())) fail(name_, "a node holds a NaN or infinite value");
   if (!all_finite(errors)) fail(name_, "an error bound is NaN or infinite");
   for (const Quad& q : errors)
     for (float e : q.lane)
@@ -253,8 +293,8 @@ void QtFile::verify() {
     captures_.normals = as_span<Point3>(set_info->normals());
     captures_.tangents = as_span<Point3>(set_info->tangents());
     captures_.trees = trees_;
-    if (captures_.positions.size() != trees_.size() ||
-        captures_.normals.size() != trees_.size() || captures_.tangents.size() != trees_.size())
+    if (captures_.positions.size() != trees_.size() || captures_.normals.size() != trees_.size() ||
+        captures_.tangents.size() != trees_.size())
       fail(name_, "capture positions, normals and tangents do not match the " +
                       std::to_string(trees_.size()) + " trees");
     if (!finite_unit_frames(captures_.positions, false))
@@ -272,8 +312,8 @@ void QtFile::verify() {
 }
 
 BrdfTableView QtFile::brdf_table() const {
-  if (kind_ != QtKind::brdf_table) fail(name_, std::string("holds a ") + to_string(kind_) +
-                                                   ", not a BRDF table");
+  if (kind_ != QtKind::brdf_table)
+    fail(name_, std::string("holds a ") + to_string(kind_) + ", not a BRDF table");
   return {wo_resolution_, trees_};
 }
 
@@ -301,7 +341,8 @@ Provenance QtFile::provenance() const {
   if (fp->tool_version()) p.tool_version = fp->tool_version()->str();
   if (fp->parameters()) p.parameters = fp->parameters()->str();
   if (fp->sources())
-    for (const auto* s : *fp->sources()) p.sources.push_back(s->str());
+    for (const auto* s : *fp->sources())
+      p.sources.push_back(s->str());
   return p;
 }
 
@@ -327,7 +368,8 @@ flatbuffers::Offset<fb::TreeSet> build_tree_set(flatbuffers::FlatBufferBuilder& 
 flatbuffers::Offset<fb::Provenance> build_provenance(flatbuffers::FlatBufferBuilder& b,
                                                      const Provenance& p) {
   std::vector<flatbuffers::Offset<flatbuffers::String>> sources;
-  for (const std::string& s : p.sources) sources.push_back(b.CreateString(s));
+  for (const std::string& s : p.sources)
+    sources.push_back(b.CreateString(s));
   return fb::CreateProvenance(b, b.CreateString(p.tool), b.CreateString(p.tool_version),
                               b.CreateString(p.parameters), b.CreateVector(sources));
 }

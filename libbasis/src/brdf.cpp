@@ -12,13 +12,16 @@ namespace {
 
 constexpr double kInvPi = 1 / std::numbers::pi;
 
-Color mix(const Color& diffuse, double diffuse_scale, const Color& specular, double specular_scale) {
+Color mix(const Color& diffuse, double diffuse_scale, const Color& specular,
+          double specular_scale) {
   return {diffuse[0] * diffuse_scale + specular[0] * specular_scale,
           diffuse[1] * diffuse_scale + specular[1] * specular_scale,
           diffuse[2] * diffuse_scale + specular[2] * specular_scale};
 }
 
-bool grey(const Color& c) { return c[0] == c[1] && c[1] == c[2]; }
+bool grey(const Color& c) {
+  return c[0] == c[1] && c[1] == c[2];
+}
 
 struct Evaluator {
   const Vec3& wi;
@@ -45,8 +48,8 @@ struct Evaluator {
     const double cos2 = h.z() * h.z();
     const double tan2 = (1 - cos2) / cos2;
     const double a2 = m.alpha * m.alpha;
-    const double lobe = std::exp(-tan2 / a2) /
-                        (4 * std::numbers::pi * a2 * std::sqrt(wi.z() * wo.z()));
+    const double lobe =
+        std::exp(-tan2 / a2) / (4 * std::numbers::pi * a2 * std::sqrt(wi.z() * wo.z()));
     return mix(m.kd, kInvPi, m.ks, lobe);
   }
 

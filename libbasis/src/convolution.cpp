@@ -61,7 +61,9 @@ void descend_scalar(const QuadtreeView& a, const QuadtreeView& b, int na, int nb
 
 #if defined(__SSE2__)
 
-inline __m128 abs_ps(__m128 x) { return _mm_andnot_ps(_mm_set1_ps(-0.0f), x); }
+inline __m128 abs_ps(__m128 x) {
+  return _mm_andnot_ps(_mm_set1_ps(-0.0f), x);
+}
 
 // Lane sums of C accumulators (C = 1 or 3) into out[0..C-1]; out has room for four floats.
 template <int C>
@@ -103,7 +105,8 @@ class SseDescent {
     if (depth > kMaxTreeLevels) throw std::runtime_error("quadtree deeper than its resolution");
     __m128 value[GA][C], bound[C];
     for (int c = 0; c < C; ++c) {
-      for (int g = 0; g < GA; ++g) value[g][c] = _mm_setzero_ps();
+      for (int g = 0; g < GA; ++g)
+        value[g][c] = _mm_setzero_ps();
       bound[c] = _mm_setzero_ps();
     }
     const Quad* const nodes_a = nodes_a_;
@@ -141,7 +144,8 @@ class SseDescent {
         }
       }
       const int internal = ~_mm_movemask_ps(leaf) & 0xF;
-      if (internal) enqueue(internal, links_a, links_b, ring, head, tail, area, depth, value, bound);
+      if (internal)
+        enqueue(internal, links_a, links_b, ring, head, tail, area, depth, value, bound);
       if (head == tail) break;
       if (head == level_end) {  // the next level starts: quadrants are a quarter the size
         area *= 0.25f;
@@ -153,7 +157,8 @@ class SseDescent {
     }
     Sums sums;
     for (int c = 0; c < C; ++c) {
-      for (int g = 0; g < GA; ++g) sums.value[g][c] = value[g][c];
+      for (int g = 0; g < GA; ++g)
+        sums.value[g][c] = value[g][c];
       sums.bound[c] = bound[c];
     }
     return sums;
@@ -165,15 +170,15 @@ class SseDescent {
   // Queues the internal quadrants of a pair whose quadrants have the given area; when the ring
   // has no room, descends them in nested calls and adds their sums.
   [[gnu::always_inline]] void enqueue(int internal, __m128i links_a, __m128i links_b,
-                                      std::int64_t* ring, unsigned head, unsigned& tail,
-                                      float area, int depth, __m128 (&value)[GA][C],
-                                      __m128 (&bound)[C]) const {
+                                      std::int64_t* ring, unsigned head, unsigned& tail, float area,
+                                      int depth, __m128 (&value)[GA][C], __m128 (&bound)[C]) const {
     const __m128i low = _mm_unpacklo_epi32(links_a, links_b);   // (a0 b0) (a1 b1)
     const __m128i high = _mm_unpackhi_epi32(links_a, links_b);  // (a2 b2) (a3 b3)
     if (tail - head > kRing - 4) [[unlikely]] {
       const Sums nested = descend_now(internal, low, high, area * 0.25f, depth + 1);
       for (int c = 0; c < C; ++c) {
-        for (int g = 0; g < GA; ++g) value[g][c] = _mm_add_ps(value[g][c], nested.value[g][c]);
+        for (int g = 0; g < GA; ++g)
+          value[g][c] = _mm_add_ps(value[g][c], nested.value[g][c]);
         bound[c] = _mm_add_ps(bound[c], nested.bound[c]);
       }
       return;
@@ -221,7 +226,8 @@ void descend_sse(const QuadtreeView& a, const QuadtreeView& b, float (&value)[GA
                  float (&bound)[4]) {
   using Descent = SseDescent<CA, CB, GA, kBound>;
   const typename Descent::Sums sums = Descent(a, b).run(0, 0, 0.25f);
-  for (int g = 0; g < GA; ++g) store_lane_sums<Descent::C>(sums.value[g], value[g]);
+  for (int g = 0; g < GA; ++g)
+    store_lane_sums<Descent::C>(sums.value[g], value[g]);
   if constexpr (kBound) store_lane_sums<Descent::C>(sums.bound, bound);
 }
 

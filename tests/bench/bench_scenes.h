@@ -33,7 +33,8 @@ inline Grid brdf_grid(const Brdf& brdf, const Vec3& wo, int n) {
       g,
       [&](double u, double v, double* out) {
         const Color f = evaluate(brdf, square_to_cosine_hemisphere({u, v}), wo);
-        for (int c = 0; c < g.channels; ++c) out[c] = f[c];
+        for (int c = 0; c < g.channels; ++c)
+          out[c] = f[c];
       },
       options);
   return g;
@@ -41,8 +42,9 @@ inline Grid brdf_grid(const Brdf& brdf, const Vec3& wo, int n) {
 
 // Sky radiance brightening towards the horizon, a wall (radiance 0.02) over a quarter of the
 // azimuths below 35 degrees elevation, and a sun of angular radius 0.27 degrees, radiance 1e5,
-// at 40 degrees elevation: its energy is added to the texel holding its centre.
-inline Grid sky_grid(int n) {
+// at 40 degrees elevation and the given azimuth (radians): its energy is added to the texel
+// holding its centre.
+inline Grid sky_grid(int n, double sun_azimuth = 1.0) {
   Grid g(n, 3);
   const double sin_wall = std::sin(35 * std::numbers::pi / 180);
   auto radiance = [&](const Vec3& w, int c) {
@@ -55,11 +57,12 @@ inline Grid sky_grid(int n) {
       g,
       [&](double u, double v, double* out) {
         const Vec3 w = square_to_cosine_hemisphere({u, v});
-        for (int c = 0; c < 3; ++c) out[c] = radiance(w, c);
+        for (int c = 0; c < 3; ++c)
+          out[c] = radiance(w, c);
       },
-      SupersampleOptions{.relative_tolerance = 1e-3, .absolute_floor = 0.1,
-                         .max_samples_per_axis = 8});
-  const double elevation = 40 * std::numbers::pi / 180, azimuth = 1.0;
+      SupersampleOptions{
+          .relative_tolerance = 1e-3, .absolute_floor = 0.1, .max_samples_per_axis = 8});
+  const double elevation = 40 * std::numbers::pi / 180, azimuth = sun_azimuth;
   const Vec3 sun(std::cos(elevation) * std::cos(azimuth), std::cos(elevation) * std::sin(azimuth),
                  std::sin(elevation));
   const double radius = 0.27 * std::numbers::pi / 180;

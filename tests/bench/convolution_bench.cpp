@@ -47,10 +47,12 @@ void register_all() {
         add_counters(state, *p);
       });
       benchmark::RegisterBenchmark(("convolve/dense_naive" + suffix).c_str(), [p](auto& state) {
-        for (auto _ : state) benchmark::DoNotOptimize(dense_convolve_naive(p->brdf, p->light));
+        for (auto _ : state)
+          benchmark::DoNotOptimize(dense_convolve_naive(p->brdf, p->light));
       });
       benchmark::RegisterBenchmark(("convolve/dense_simd" + suffix).c_str(), [p](auto& state) {
-        for (auto _ : state) benchmark::DoNotOptimize(dense_convolve_simd(p->brdf, p->light));
+        for (auto _ : state)
+          benchmark::DoNotOptimize(dense_convolve_simd(p->brdf, p->light));
       });
     }
     auto light = std::make_shared<const Grid>(sky_grid(n));

@@ -4,6 +4,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -64,9 +65,25 @@ class QtFile {
  private:
   QtFile() = default;
   void verify();
+  // The file's bytes, 16-byte aligned: a read-only memory map of a file, or a copy in memory.
+  class Buffer {
+   public:
+    Buffer() = default;
+    Buffer(Buffer&& other) noexcept { *this = std::move(other); }
+    Buffer& operator=(Buffer&& other) noexcept;
+    ~Buffer();
+    static Buffer map_file(int fd, std::size_t size);
+    static Buffer copy_of(std::span<const std::byte> bytes);
+    const void* data() const { return data_; }
+
+   private:
+    void* data_ = nullptr;
+    std::size_t mapped_size_ = 0;  // nonzero for a memory map
+    std::unique_ptr<Quad[]> copy_;
+  };
   const void* buffer() const { return storage_.data(); }
 
-  std::vector<Quad> storage_;  // 16-byte aligned bytes of the file
+  Buffer storage_;
   std::size_t size_ = 0;
   std::string name_;
   QtKind kind_ = QtKind::tree;

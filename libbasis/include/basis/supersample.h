@@ -46,7 +46,8 @@ long long average_over_texels(Grid& grid, const F& f, const SupersampleOptions& 
         }
       }
     evaluations += s * s;
-    for (double& v : sum) v /= s * s;
+    for (double& v : sum)
+      v /= s * s;
   };
   auto tolerance = [&](double v) {
     return options.relative_tolerance * std::max(std::abs(v), options.absolute_floor);
@@ -56,13 +57,15 @@ long long average_over_texels(Grid& grid, const F& f, const SupersampleOptions& 
       int s = 2;
       estimate(x, y, s);
       bool done = true;
-      for (int k = 0; k < checked; ++k) done &= hi[k] - lo[k] <= tolerance(sum[k]);
+      for (int k = 0; k < checked; ++k)
+        done &= hi[k] - lo[k] <= tolerance(sum[k]);
       while (!done && s < options.max_samples_per_axis) {
         previous = sum;
         s *= 2;
         estimate(x, y, s);
         done = true;
-        for (int k = 0; k < checked; ++k) done &= std::abs(sum[k] - previous[k]) <= tolerance(sum[k]);
+        for (int k = 0; k < checked; ++k)
+          done &= std::abs(sum[k] - previous[k]) <= tolerance(sum[k]);
       }
       for (int g = 0; g < grid.groups; ++g)
         for (int c = 0; c < grid.channels; ++c)

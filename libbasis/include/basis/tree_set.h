@@ -21,16 +21,17 @@ struct TreeExtent {
 class TreeSetView {
  public:
   TreeSetView() = default;
-  TreeSetView(QuadtreeShape shape, std::span<const TreeExtent> extents,
-              std::span<const Quad> nodes, std::span<const Quad> errors)
+  TreeSetView(QuadtreeShape shape, std::span<const TreeExtent> extents, std::span<const Quad> nodes,
+              std::span<const Quad> errors)
       : shape_(shape), extents_(extents), nodes_(nodes), errors_(errors) {}
 
   const QuadtreeShape& shape() const { return shape_; }
   std::size_t size() const { return extents_.size(); }
   QuadtreeView tree(std::size_t i) const {
     const TreeExtent& e = extents_[i];
-    return {shape_, nodes_.subspan(std::size_t(e.first_node) * shape_.stride(),
-                                   std::size_t(e.node_count) * shape_.stride()),
+    return {shape_,
+            nodes_.subspan(std::size_t(e.first_node) * shape_.stride(),
+                           std::size_t(e.node_count) * shape_.stride()),
             errors_.subspan(std::size_t(e.first_node) * shape_.channels,
                             std::size_t(e.node_count) * shape_.channels)};
   }

@@ -1,0 +1,168 @@
+#include "basis/qt_summary.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+namespace basis {
+
+namespace {
+
+using nlohmann::ordered_json;
+
+ordered_json summarise(const QtFile& file) {
+  const TreeSetView trees = file.trees();
+  const QuadtreeShape& s = trees.shape();
+  ordered_json j;
+  j["file"] = file.name();
+  j["bytes"] = file.byte_size();
+  j["format_version"] = file.format_version();
+  j["kind"] = to_string(file.kind());
+  j["mapping"] = "cosine-weighted concentric";
+  j["trees"] = trees.size();
+  j["resolution"] = s.resolution;
+  j["channels"] = s.channels;
+  j["groups"] = s.groups;
+  const ProjectionOptions p = file.projection();
+  j["tolerance"] = {{"value", p.tolerance},
+                    {"mode", p.mode == ProjectionOptions::Mode::relative ? "relative" : "absolute"},
+                    {"max_depth", p.max_depth}};
+
+  std::size_t total = 0, smallest = SIZE_MAX, largest = 0;
+  std::vector<long long> histogram;
+  for (std::size_t i = 0; i < trees.size(); ++i) {
+    const QuadtreeView t = trees.tree(i);
+    const std::size_t n = std::size_t(t.node_count());
+    total += n;
+    smallest = std::min(smallest, n);
+    largest = std::max(largest, n);
+    const std::vector<int> h = depth_histogram(t);
+    if (histogram.size() < h.size()) histogram.resize(h.size(), 0);
+    for (std::size_t k = 0; k < h.size(); ++k)
+      histogram[k] += h[k];
+  }
+  j["nodes"] = {{"total", total},
+                {"min", smallest},
+                {"mean", double(total) / double(trees.size())},
+                {"max", largest},
+                {"per_level", histogram}};
+  const double tree_bytes = double(trees.nodes().size_bytes() + trees.errors().size_bytes());
+  const double dense_bytes =
+      double(trees.size()) * s.resolution * s.resolution * s.channels * s.groups * sizeof(float);
+  j["storage"] = {{"tree_bytes", tree_bytes},
+                  {"dense_bytes", dense_bytes},
+                  {"compression", dense_bytes / tree_bytes}};
+  if (file.kind() == QtKind::brdf_table) {
+    j["brdf_table"] = {{"wo_resolution", file.brdf_table().wo_resolution},
+                       {"model", file.brdf_model()},
+                       {"spec", file.brdf_spec()}};
+  }
+  if (file.kind() == QtKind::capture_set) {
+    const CaptureSetView c = file.captures();
+    Point3 lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
+    for (const Point3& q : c.positions)
+      for (int k = 0; k < 3; ++k) {
+        lo[k] = std::min(lo[k], q[k]);
+        hi[k] = std::max(hi[k], q[k]);
+      }
+    j["captures"] = {{"points", c.size()}, {"bounds_min", lo}, {"bounds_max", hi}};
+  }
+  const Provenance prov = file.provenance();
+  j["provenance"] = {{"tool", prov.tool},
+                     {"tool_version", prov.tool_version},
+                     {"parameters", prov.parameters},
+                     {"sources", prov.sources}};
+  return j;
+}
+
+std::string bytes_text(double bytes) {
+  char buffer[64];
+  if (bytes >= 1 << 20)
+    std::snprintf(buffer, sizeof buffer, "%.2f MiB", bytes / (1 << 20));
+  else if (bytes >= 1 << 10)
+    std::snprintf(buffer, sizeof buffer, "%.1f KiB", bytes / (1 << 10));
+  else
+    std::snprintf(buffer, sizeof buffer, "%.0f B", bytes);
+  return buffer;
+}
+
+}  // namespace
+
+std::string summary_json(const QtFile& file) {
+  return summarise(file).dump(2);
+}
+
+std::string summary_text(const QtFile& file) {
+  const ordered_json j = summarise(file);
+  std::ostringstream out;
+  out << "file         " << file.name() << " (" << bytes_text(double(file.byte_size()))
+      << ", format " << file.format_version() << ")\n";
+  out << "kind         " << j["kind"].get<std::string>();
+  if (j.contains("brdf_table")) {
+    const int m = j["brdf_table"]["wo_resolution"];
+    out << ", model " << j["brdf_table"]["model"].get<std::string>() << ", " << m << " x " << m
+        << " outgoing directions (parabolic grid)";
+  }
+  if (j.contains("captures"))
+    out << ", " << j["captures"]["points"].get<std::size_t>() << " points";
+  out << "\n";
+  const int n = j["resolution"], channels = j["channels"], groups = j["groups"];
+  out << "trees        " << j["trees"].get<std::size_t>() << " over " << n << " x " << n
+      << " texels of the cosine-weighted concentric map, " << channels
+      << (channels == 1 ? " channel" : " channels");
+  if (groups == 3)
+    out << ", 3 groups (value, d/dtilt_x, d/dtilt_y)";
+  else if (groups > 1)
+    out << ", " << groups << " groups";
+  out << "\n";
+  const auto& tol = j["tolerance"];
+  out << "tolerance    ";
+  if (tol["mode"] == "relative")
+    out << tol["value"].get<double>() * 100 << " % of each channel's mean";
+  else
+    out << tol["value"].get<double>() << " (absolute)";
+  const int depth = tol["max_depth"];
+  out << ", max depth " << (depth == 0 ? std::string("full") : std::to_string(depth)) << "\n";
+  const auto& nodes = j["nodes"];
+  char line[256];
+  std::snprintf(line, sizeof line,
+                "nodes        %zu in all; per tree min %zu, mean %.1f, max %zu\n",
+                nodes["total"].get<std::size_t>(), nodes["min"].get<std::size_t>(),
+                nodes["mean"].get<double>(), nodes["max"].get<std::size_t>());
+  out << line << "per level    ";
+  const auto& levels = nodes["per_level"];
+  for (std::size_t k = 0; k < levels.size(); ++k)
+    out << (k ? ", " : "") << "L" << k << " " << levels[k].get<long long>();
+  out << "\n";
+  const auto& storage = j["storage"];
+  std::snprintf(line, sizeof line,
+                "storage      %s of nodes and bounds; dense grids %s; %.1fx smaller\n",
+                bytes_text(storage["tree_bytes"]).c_str(),
+                bytes_text(storage["dense_bytes"]).c_str(), storage["compression"].get<double>());
+  out << line;
+  if (j.contains("captures")) {
+    const auto& lo = j["captures"]["bounds_min"];
+    const auto& hi = j["captures"]["bounds_max"];
+    std::snprintf(line, sizeof line, "bounds       (%g, %g, %g) .. (%g, %g, %g)\n",
+                  lo[0].get<double>(), lo[1].get<double>(), lo[2].get<double>(),
+                  hi[0].get<double>(), hi[1].get<double>(), hi[2].get<double>());
+    out << line;
+  }
+  const auto& prov = j["provenance"];
+  if (!prov["tool"].get<std::string>().empty()) {
+    out << "made by      " << prov["tool"].get<std::string>() << " "
+        << prov["tool_version"].get<std::string>() << "\n";
+    if (!prov["parameters"].get<std::string>().empty())
+      out << "parameters   " << prov["parameters"].get<std::string>() << "\n";
+    if (!prov["sources"].empty()) {
+      out << "sources     ";
+      for (const auto& s : prov["sources"])
+        out << " " << s.get<std::string>();
+      out << "\n";
+    }
+  }
+  return out.str();
+}
+
+}  // namespace basis

@@ -1,0 +1,20 @@
+// Pictures of quadtrees as in the paper's Figure 4: the reconstructed function over the unit
+// square (u to the right, v downwards) with the cells of the tree outlined.
+#pragma once
+
+#include "basis/image.h"
+#include "basis/quadtree.h"
+
+namespace basis {
+
+struct PictureOptions {
+  int size = 512;             // pixels per side
+  int group = 0;              // channel group to show
+  bool outline_cells = true;  // draw the leaf cells' borders
+};
+
+// An RGB display image (values in [0,1]) of one tree: tone-mapped by the function's mean, a
+// grey tree shown grey, signed groups (derivatives) shown blue for negative, red for positive.
+Image draw_tree(const QuadtreeView& tree, const PictureOptions& options = {});
+
+}  // namespace basis

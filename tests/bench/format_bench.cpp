@@ -1,0 +1,54 @@
+// Loading .qt files: read and verify (structure and semantics) a capture set of 100,000 trees.
+#include <benchmark/benchmark.h>
+
+#include <filesystem>
+#include <random>
+
+#include "basis/qt_file.h"
+#include "bench_scenes.h"
+
+namespace basis::bench {
+namespace {
+
+// 100,000 captures at 32 x 32, RGB, 5 %: 64 distinct skies (the sun moves) repeated.
+std::string capture_file() {
+  static const std::string path = [] {
+    const std::string p =
+        (std::filesystem::temp_directory_path() / "basis_bench_100k_captures.qt").string();
+    std::vector<Quadtree> distinct;
+    for (int k = 0; k < 64; ++k)
+      distinct.push_back(project(sky_grid(32, 0.1 * k), {}));
+    CaptureSet set;
+    set.trees = TreeSet({32, 3, 1});
+    for (int i = 0; i < 100000; ++i) {
+      set.trees.append(distinct[i % 64].view());
+      set.positions.push_back({0.01 * i, 0, 0});
+      set.normals.push_back({0, 0, 1});
+      set.tangents.push_back({1, 0, 0});
+    }
+    write_qt(p, encode_capture_set(set.view(), {}, {"basis_bench", "", "{}", {}}));
+    return p;
+  }();
+  return path;
+}
+
+void BM_LoadCaptureSet(benchmark::State& state) {
+  const std::string path = capture_file();
+  std::size_t bytes = 0, trees = 0;
+  for (auto _ : state) {
+    const QtFile file = QtFile::load(path);
+    bytes = file.byte_size();
+    trees = file.trees().size();
+    benchmark::DoNotOptimize(file.trees().nodes().data());
+  }
+  state.SetBytesProcessed(std::int64_t(bytes) * state.iterations());
+  state.counters["trees"] = double(trees);
+  state.counters["file_MiB"] = double(bytes) / (1 << 20);
+}
+BENCHMARK(BM_LoadCaptureSet)
+    ->Name("load/capture_set/100000")
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(5);
+
+}  // namespace
+}  // namespace basis::bench

@@ -1,0 +1,122 @@
+#include "cli.h"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <iostream>
+#include <sstream>
+
+#include "basis/atomic_file.h"
+
+namespace basis::cli {
+
+namespace {
+
+// The only process-wide state of the tools: set from signal handlers.
+std::atomic<bool> interrupted{false};
+
+extern "C" void on_signal(int) {
+  interrupted.store(true);
+}
+
+std::string one_line(std::string text) {
+  for (char& c : text)
+    if (c == '\n' || c == '\r') c = ' ';
+  while (!text.empty() && text.back() == ' ')
+    text.pop_back();
+  return text;
+}
+
+}  // namespace
+
+const std::atomic<bool>& interrupt_flag() {
+  return interrupted;
+}
+
+int run(CLI::App& app, int argc, char** argv, const std::function<void()>& body) {
+  const std::string tool = app.get_name();
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::cerr << tool << ": " << one_line(e.what()) << " (see --help)\n";
+    return kExitBadUsage;
+  }
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  try {
+    body();
+    if (interrupted.load()) {
+      std::cerr << tool << ": interrupted\n";
+      return kExitInterrupted;
+    }
+    return kExitOk;
+  } catch (const UsageError& e) {
+    std::cerr << tool << ": " << one_line(e.what()) << " (see --help)\n";
+    return kExitBadUsage;
+  } catch (const Cancelled&) {
+    std::cerr << tool << ": interrupted; no output written\n";
+    return kExitInterrupted;
+  } catch (const std::bad_alloc&) {
+    std::cerr << tool << ": out of memory\n";
+    return kExitBadData;
+  } catch (const std::exception& e) {
+    std::cerr << tool << ": " << one_line(e.what()) << "\n";
+    return kExitBadData;
+  }
+}
+
+ProgressBar::ProgressBar(std::string label, bool quiet)
+    : label_(std::move(label)),
+      enabled_(!quiet && ::isatty(STDERR_FILENO)),
+      start_(std::chrono::steady_clock::now()) {
+  control_.cancel = &interrupted;
+  if (!enabled_) return;
+  control_.progress = [this](std::size_t done, std::size_t total) {
+    const auto now = std::chrono::steady_clock::now();
+    const long long ms =
+        std::chrono::duration_cast<std::chrono::milliseconds>(now - start_).count();
+    long long last = last_draw_ms_.load();
+    if (done < total && ms - last < 100) return;  // at most ten redraws a second
+    if (!last_draw_ms_.compare_exchange_strong(last, ms)) return;
+    const int width = 30;
+    const int filled = total ? int(width * double(done) / double(total)) : width;
+    std::fprintf(stderr, "\r%s [%-*s] %3d%% %zu/%zu %.1f s", label_.c_str(), width,
+                 std::string(std::size_t(filled), '#').c_str(),
+                 total ? int(100 * done / total) : 100, done, total, ms / 1000.0);
+    std::fflush(stderr);
+  };
+}
+
+ProgressBar::~ProgressBar() {
+  finish();
+}
+
+void ProgressBar::finish() {
+  if (!enabled_) return;
+  enabled_ = false;
+  control_.progress = nullptr;
+  std::fprintf(stderr, "\r\033[K");
+  std::fflush(stderr);
+}
+
+std::array<double, 3> parse_triple(const std::string& text, const std::string& option) {
+  std::array<double, 3> v{};
+  std::istringstream in(text);
+  char comma1 = 0, comma2 = 0;
+  if (!(in >> v[0] >> comma1 >> v[1] >> comma2 >> v[2]) || comma1 != ',' || comma2 != ',' ||
+      !(in >> std::ws).eof())
+    throw UsageError(option + " expects three numbers X,Y,Z, got '" + text + "'");
+  for (double x : v)
+    if (!std::isfinite(x)) throw UsageError(option + " holds a non-finite number: '" + text + "'");
+  return v;
+}
+
+}  // namespace basis::cli

@@ -1,0 +1,57 @@
+// Glue shared by the command-line tools: exit codes, one-line errors, interruption, progress.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <atomic>
+#include <chrono>
+#include <cstddef>
+#include <functional>
+#include <string>
+
+#include "basis/task.h"
+
+namespace basis::cli {
+
+// Exit statuses of every tool.
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitBadData = 1;   // unreadable, corrupt or inconsistent input; I/O errors
+inline constexpr int kExitBadUsage = 2;  // flags or arguments the tool cannot accept
+inline constexpr int kExitInterrupted = 130;
+
+// Parses the command line and runs `body`, turning every failure into one line on stderr
+// ("TOOL: problem") and the exit statuses above. SIGINT and SIGTERM set the flag returned by
+// interrupt_flag(); long operations stop at their next check and the tool exits 130 without
+// writing output.
+int run(CLI::App& app, int argc, char** argv, const std::function<void()>& body);
+
+// The flag set by SIGINT / SIGTERM once run() has installed its handlers.
+const std::atomic<bool>& interrupt_flag();
+
+// Thrown by tools for bad usage detected after parsing (exit status 2).
+class UsageError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// A TaskControl that draws a progress bar on stderr when it is a terminal (and `quiet` is
+// false) and stops on interruption.
+class ProgressBar {
+ public:
+  ProgressBar(std::string label, bool quiet);
+  ~ProgressBar();
+  const TaskControl& control() const { return control_; }
+  void finish();
+
+ private:
+  std::string label_;
+  bool enabled_;
+  std::chrono::steady_clock::time_point start_;
+  std::atomic<long long> last_draw_ms_{-1000};
+  TaskControl control_;
+};
+
+// Parses "X,Y,Z" into three finite numbers; throws UsageError naming the option.
+std::array<double, 3> parse_triple(const std::string& text, const std::string& option);
+
+}  // namespace basis::cli

@@ -1,0 +1,69 @@
+// qtinfo: what a .qt file holds, and a picture of one of its trees.
+#include <iostream>
+
+#include "basis/image_io.h"
+#include "basis/picture.h"
+#include "basis/qt_file.h"
+#include "basis/qt_summary.h"
+#include "basis/version.h"
+#include "cli.h"
+
+int main(int argc, char** argv) {
+  CLI::App app(
+      "Describe a .qt file: its kind (tree, BRDF table, capture set), resolution, channels, "
+      "tolerance, node counts per tree and per level, storage against dense grids, and where it "
+      "came from. Optionally draw one tree as a PNG: the reconstructed function over the unit "
+      "square (u right, v down) with the cells of the tree outlined.",
+      "qtinfo");
+  std::string input, png, entry;
+  int index = -1, group = 0, size = 512;
+  bool json = false;
+  app.add_option("file", input, "the .qt file")->required();
+  app.add_flag("--json", json, "print the summary as JSON for scripts");
+  app.add_option("--png", png, "draw a tree into this PNG file");
+  app.add_option("--entry", entry,
+                 "BRDF table entry I,J to draw (parabolic grid indices; default: the entry "
+                 "nearest the normal)");
+  app.add_option("--index", index, "capture (or tree) index to draw; default 0");
+  app.add_option("--group", group,
+                 "channel group to draw: 0 the function, 1 and 2 the tilt derivatives of BRDF "
+                 "tables")
+      ->check(CLI::Range(0, 2));
+  app.add_option("--size", size, "picture size in pixels")->check(CLI::Range(16, 8192));
+  app.set_version_flag("--version", basis::kVersion);
+
+  return basis::cli::run(app, argc, argv, [&] {
+    const basis::QtFile file = basis::QtFile::load(input);
+    std::cout << (json ? basis::summary_json(file) + "\n" : basis::summary_text(file));
+    if (png.empty()) {
+      if (!entry.empty() || index >= 0)
+        throw basis::cli::UsageError("--entry and --index choose the tree drawn by --png");
+      return;
+    }
+    basis::QuadtreeView tree = file.tree();
+    if (file.kind() == basis::QtKind::brdf_table) {
+      const basis::BrdfTableView table = file.brdf_table();
+      int i = (table.wo_resolution - 1) / 2, j = i;
+      if (!entry.empty()) {
+        char comma = 0;
+        std::istringstream in(entry);
+        if (!(in >> i >> comma >> j) || comma != ',' || !(in >> std::ws).eof())
+          throw basis::cli::UsageError("--entry expects I,J, got '" + entry + "'");
+      }
+      if (i < 0 || j < 0 || i >= table.wo_resolution || j >= table.wo_resolution)
+        throw basis::cli::UsageError("--entry " + std::to_string(i) + "," + std::to_string(j) +
+                                     " outside the " + std::to_string(table.wo_resolution) + " x " +
+                                     std::to_string(table.wo_resolution) + " table");
+      tree = table.entry(i, j);
+    } else if (index >= 0) {
+      if (std::size_t(index) >= file.trees().size())
+        throw basis::cli::UsageError("--index " + std::to_string(index) + " but the file holds " +
+                                     std::to_string(file.trees().size()) + " trees");
+      tree = file.trees().tree(std::size_t(index));
+    }
+    if (group >= tree.shape().groups)
+      throw basis::cli::UsageError("--group " + std::to_string(group) + " but the trees hold " +
+                                   std::to_string(tree.shape().groups) + " groups");
+    basis::write_image(png, basis::draw_tree(tree, {.size = size, .group = group}));
+  });
+}
