@@ -157,13 +157,14 @@ TEST(Convolution, GroupsEqualSeparateDenseProducts) {
     const Quadtree ta = project(a, {.tolerance = 0.1});
     const Quadtree tb = project(grid_b, {.tolerance = 0.1});
     const Grid ra = reconstruct(ta.view()), rb = reconstruct(tb.view());
-    const auto groups = convolve_groups(ta.view(), tb.view());
+    const GroupConvolution groups = convolve_groups(ta.view(), tb.view());
     for (int g = 0; g < 3; ++g)
       for (int c = 0; c < 3; ++c) {
         const double expected = dense_product({&ra, &rb}, g, c);
-        EXPECT_NEAR(groups[g][c], expected, 2e-6 * std::abs(expected) + 1e-6) << name << g;
+        EXPECT_NEAR(groups.value[g][c], expected, 2e-6 * std::abs(expected) + 1e-6) << name << g;
       }
-    EXPECT_EQ(groups[0], convolve_value(ta.view(), tb.view()));
+    EXPECT_EQ(groups.value[0], convolve_value(ta.view(), tb.view()));
+    EXPECT_EQ(groups.bound, convolve(ta.view(), tb.view()).bound);
   }
 }
 

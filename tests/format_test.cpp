@@ -134,8 +134,8 @@ TEST(QtFormat, BrdfTableRoundTrip) {
   const Quadtree light = sample_tree(16, 1, 0);
   for (int j = 0; j < 4; ++j)
     for (int i = 0; i < 4; ++i)
-      EXPECT_EQ(convolve_groups(loaded.entry(i, j), light.view()),
-                convolve_groups(table.view().entry(i, j), light.view()));
+      EXPECT_EQ(convolve_groups(loaded.entry(i, j), light.view()).value,
+                convolve_groups(table.view().entry(i, j), light.view()).value);
   EXPECT_THROW(file.captures(), FileError);
 }
 

@@ -107,6 +107,11 @@ void ProgressBar::finish() {
   std::fflush(stderr);
 }
 
+std::unique_ptr<tbb::task_arena> thread_arena(int threads) {
+  if (threads > 0) return std::make_unique<tbb::task_arena>(threads);
+  return std::make_unique<tbb::task_arena>();
+}
+
 std::array<double, 3> parse_triple(const std::string& text, const std::string& option) {
   std::array<double, 3> v{};
   std::istringstream in(text);

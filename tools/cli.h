@@ -2,11 +2,13 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <tbb/task_arena.h>
 
 #include <atomic>
 #include <chrono>
 #include <cstddef>
 #include <functional>
+#include <memory>
 #include <string>
 
 #include "basis/task.h"
@@ -50,6 +52,9 @@ class ProgressBar {
   std::atomic<long long> last_draw_ms_{-1000};
   TaskControl control_;
 };
+
+// A task arena of `threads` workers (0: all cores) for the tools' --threads flag.
+std::unique_ptr<tbb::task_arena> thread_arena(int threads);
 
 // Parses "X,Y,Z" into three finite numbers; throws UsageError naming the option.
 std::array<double, 3> parse_triple(const std::string& text, const std::string& option);

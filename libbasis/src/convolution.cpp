@@ -325,36 +325,30 @@ Rgb convolve_value(const QuadtreeView& a, const QuadtreeView& b) {
 #endif
 }
 
-std::array<Rgb, 3> convolve_groups(const QuadtreeView& a, const QuadtreeView& b) {
+GroupConvolution convolve_groups(const QuadtreeView& a, const QuadtreeView& b) {
   check_compatible(a.shape(), b.shape());
   const int channels = std::max(a.shape().channels, b.shape().channels);
-  std::array<Rgb, 3> result{};
+  GroupConvolution result;
 #if defined(__SSE2__)
   float bound[4] = {};
+  auto run = [&]<int G>() {
+    float value[G][4] = {};
+    dispatch_sse<G, true>(a, b, value, bound);
+    for (int g = 0; g < G; ++g) result.value[g] = to_rgb(value[g], channels);
+  };
   switch (a.shape().groups) {
-    case 1: {
-      float value[1][4] = {};
-      dispatch_sse<1, false>(a, b, value, bound);
-      result[0] = to_rgb(value[0], channels);
+    case 1:
+      run.operator()<1>();
       break;
-    }
-    case 2: {
-      float value[2][4] = {};
-      dispatch_sse<2, false>(a, b, value, bound);
-      for (int g = 0; g < 2; ++g)
-        result[g] = to_rgb(value[g], channels);
+    case 2:
+      run.operator()<2>();
       break;
-    }
-    default: {
-      float value[3][4] = {};
-      dispatch_sse<3, false>(a, b, value, bound);
-      for (int g = 0; g < 3; ++g)
-        result[g] = to_rgb(value[g], channels);
-      break;
-    }
+    default:
+      run.operator()<3>();
   }
+  result.bound = to_rgb(bound, channels);
 #else
-  // Portable path: one scalar descent per group over a view that starts at that group.
+  // Portable path: one scalar descent per group.
   for (int g = 0; g < a.shape().groups; ++g) {
     double sum[3] = {};
     auto visit = [&](auto&& self, int na, int nb, double area) -> void {
@@ -370,8 +364,9 @@ std::array<Rgb, 3> convolve_groups(const QuadtreeView& a, const QuadtreeView& b)
       }
     };
     visit(visit, 0, 0, 0.25);
-    result[g] = to_rgb(sum, channels);
+    result.value[g] = to_rgb(sum, channels);
   }
+  result.bound = convolve_scalar(a, b).bound;
 #endif
   return result;
 }

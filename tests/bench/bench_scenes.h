@@ -31,7 +31,7 @@ inline Grid brdf_grid(const Brdf& brdf, const Vec3& wo, int n) {
   options.absolute_floor = 0.01;
   average_over_texels(
       g,
-      [&](double u, double v, double* out) {
+      [&](double u, double v, double* out, bool) {
         const Color f = evaluate(brdf, square_to_cosine_hemisphere({u, v}), wo);
         for (int c = 0; c < g.channels; ++c)
           out[c] = f[c];
@@ -55,13 +55,13 @@ inline Grid sky_grid(int n, double sun_azimuth = 1.0) {
   };
   average_over_texels(
       g,
-      [&](double u, double v, double* out) {
+      [&](double u, double v, double* out, bool) {
         const Vec3 w = square_to_cosine_hemisphere({u, v});
         for (int c = 0; c < 3; ++c)
           out[c] = radiance(w, c);
       },
       SupersampleOptions{
-          .relative_tolerance = 1e-3, .absolute_floor = 0.1, .max_samples_per_axis = 8});
+          .relative_tolerance = 1e-3, .absolute_floor = 0.1, .max_depth = 3});
   const double elevation = 40 * std::numbers::pi / 180, azimuth = sun_azimuth;
   const Vec3 sun(std::cos(elevation) * std::cos(azimuth), std::cos(elevation) * std::sin(azimuth),
                  std::sin(elevation));

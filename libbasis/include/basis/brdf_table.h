@@ -4,6 +4,11 @@
 
 #include <string>
 
+#include "basis/brdf.h"
+#include "basis/convolution.h"
+#include "basis/rotation.h"
+#include "basis/supersample.h"
+#include "basis/task.h"
 #include "basis/tree_set.h"
 
 namespace basis {
@@ -27,5 +32,55 @@ struct BrdfTable {
 
   BrdfTableView view() const { return {wo_resolution, trees.view()}; }
 };
+
+// The outgoing direction of entry (i, j): the parabolic grid point, pulled inside the disk to
+// at most kTableMaxOutgoingDegrees from the normal (grid points beyond the rim stand for the
+// horizon, where BRDFs are zero or singular).
+inline constexpr double kTableMaxOutgoingDegrees = 89.0;
+Vec3 table_outgoing(int i, int j, int wo_resolution);
+
+struct BrdfTableOptions {
+  int wo_resolution = 33;  // M, entries per side of the parabolic grid (2..256)
+  int wi_resolution = 64;  // N, texels per side of each entry (power of two, 2..512)
+  ProjectionOptions projection;
+  bool tilt_derivatives = true;  // store groups 1 and 2 for rotation compensation
+  double derivative_step = 1e-3;  // radians, central differences of tilt_derivative
+  SupersampleOptions supersampling{.relative_tolerance = 2e-3,
+                                   .absolute_floor = 1e-6,
+                                   .floor_fraction_of_mean = 1,
+                                   .max_depth = 6,
+                                   .max_group_depth = 2,
+                                   .forced_depth = 3};
+};
+
+// Texel averages over wi of one entry: group 0 f(wi, wo) per channel, and with
+// tilt_derivatives groups 1 and 2 the tilt derivatives (rotation.h) about the tangent and the
+// bitangent.
+Grid tabulate_entry(const Brdf& brdf, const Vec3& wo, const BrdfTableOptions& options);
+
+// Tabulates every entry in parallel (deterministic whatever the thread count) and projects it.
+// Reports progress per entry; throws Cancelled when the control asks.
+BrdfTable tabulate_brdf(const Brdf& brdf, const BrdfTableOptions& options,
+                        const TaskControl& control = {});
+
+// Reflected radiance Lo(wo) = integral of f(wi, wo) L(wi) cos(theta_i) dwi (pi included) for
+// a unit wo with wo.z >= 0 in the table's frame: the four entries around wo in the parabolic
+// grid convolved with the radiance tree, results interpolated bilinearly (section 2.4). The
+// bound interpolates the entries' bounds: it covers the trees against their texels, not the
+// BRDF's variation between entries. Throws std::invalid_argument for wo below the horizon.
+Convolution reflect(const BrdfTableView& table, const QuadtreeView& radiance, const Vec3& wo);
+
+// How reflect_tilted accounts for a tilt of the surface against the record's frame.
+enum class TiltCompensation {
+  none,            // the table at wo, as if the surface were not tilted
+  reparametrised,  // the table at R^-1 wo: the lobe follows the tilt (section 2.4)
+  compensated,     // reparametrised plus tilt.x * group 1 + tilt.y * group 2 (first order)
+};
+
+// Reflected radiance at a surface tilted by `tilt` against the frame `radiance` was recorded
+// in; wo_shading is in the tilted (shading) frame. The bound is that of the re-parametrised
+// term; the compensation itself is a first-order estimate.
+Convolution reflect_tilted(const BrdfTableView& table, const QuadtreeView& radiance,
+                           const Vec3& wo_shading, const Tilt& tilt, TiltCompensation mode);
 
 }  // namespace basis

@@ -32,9 +32,14 @@ Rgb convolve_value(const QuadtreeView& a, const QuadtreeView& b);
 // for the SIMD path.
 Convolution convolve_scalar(const QuadtreeView& a, const QuadtreeView& b);
 
-// Each channel group of `a` (1 or 3 groups) against group 0 of `b`, in one descent:
-// result[g] is the integral of a_g * b. Used for rotation compensation.
-std::array<Rgb, 3> convolve_groups(const QuadtreeView& a, const QuadtreeView& b);
+// Each channel group of `a` (1 to 3 groups) against group 0 of `b`, in one descent: value[g]
+// is the integral of a_g * b (groups a lacks are zero); bound is convolve()'s bound for group 0.
+// Used for rotation compensation.
+struct GroupConvolution {
+  std::array<Rgb, 3> value{};
+  Rgb bound{};
+};
+GroupConvolution convolve_groups(const QuadtreeView& a, const QuadtreeView& b);
 
 // Integral over [0,1]^2 of the product of several trees (group 0; at least one). The descent
 // stops on a quadrant as soon as all factors but one are leaves there.

@@ -1,0 +1,47 @@
+#include "basis/rotation.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace basis {
+
+double Tilt::angle() const { return std::hypot(x, y); }
+
+Tilt tilt_to(const Vec3& normal) {
+  const Vec3 n = normal.normalized();
+  const double sine = std::hypot(n.x(), n.y());
+  if (sine == 0) return {};
+  const double angle = std::atan2(sine, n.z());
+  // Axis z x n / |z x n| = (-n.y, n.x, 0) / sine.
+  return {-n.y() / sine * angle, n.x() / sine * angle};
+}
+
+Eigen::Matrix3d tilt_rotation(const Tilt& tilt) {
+  const double angle = tilt.angle();
+  if (angle == 0) return Eigen::Matrix3d::Identity();
+  return Eigen::AngleAxisd(angle, Vec3(tilt.x / angle, tilt.y / angle, 0)).toRotationMatrix();
+}
+
+Vec3 rotate_about_tangent_axis(const Vec3& v, int axis, double angle) {
+  const double c = std::cos(angle), s = std::sin(angle);
+  if (axis == 0) return {v.x(), c * v.y() - s * v.z(), s * v.y() + c * v.z()};
+  return {c * v.x() + s * v.z(), v.y(), -s * v.x() + c * v.z()};
+}
+
+Color tilt_derivative(const Brdf& brdf, const Vec3& w, const Vec3& wo, int axis, double h) {
+  if (w.z() <= 1e-12) return {0, 0, 0};
+  auto b = [&](double t) {
+    const Vec3 normal = rotate_about_tangent_axis(Vec3::UnitZ(), axis, t);
+    const double cosine_ratio = std::max(0.0, w.dot(normal)) / w.z();
+    const Color tilted = evaluate(brdf, rotate_about_tangent_axis(w, axis, -t), wo);
+    const Color reparametrised = evaluate(brdf, w, rotate_about_tangent_axis(wo, axis, -t));
+    Color out;
+    for (int c = 0; c < 3; ++c) out[c] = tilted[c] * cosine_ratio - reparametrised[c];
+    return out;
+  };
+  const Color plus = b(h), minus = b(-h);
+  return {(plus[0] - minus[0]) / (2 * h), (plus[1] - minus[1]) / (2 * h),
+          (plus[2] - minus[2]) / (2 * h)};
+}
+
+}  // namespace basis

@@ -1,0 +1,100 @@
+// brdf2qt: tabulate a BRDF spec into a parabolic table of quadtrees (a .qt BRDF table).
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "basis/brdf_spec.h"
+#include "basis/brdf_table.h"
+#include "basis/qt_file.h"
+#include "basis/version.h"
+#include "cli.h"
+
+int main(int argc, char** argv) {
+  CLI::App app(
+      "Tabulate a BRDF into a .qt table: an M x M parabolic grid over the outgoing direction, "
+      "each entry a quadtree over the incoming direction in the cosine-weighted concentric map "
+      "holding texel averages of f(wi, wo) (supersampled until stable), plus two channel groups "
+      "of tilt derivatives for rotation compensation.\n\n"
+      "SPEC.json: {\"model\": NAME, ...} with models lambert (albedo), phong and blinn-phong "
+      "(kd, ks, exponent), ward (kd, ks, alpha), ggx (kd, f0, alpha), merl (file). Colours are "
+      "[r, g, b] or one number. An optional \"table\": {\"wo_res\", \"wi_res\", \"tolerance\"} "
+      "block sets defaults that flags override.",
+      "brdf2qt");
+  std::string spec_path, output;
+  int wo_res = 0, wi_res = 0, threads = 0;
+  double tolerance = -1;
+  bool absolute = false, quiet = false, no_tilt = false, json = false;
+  app.add_option("spec", spec_path, "the BRDF spec (JSON)")->required();
+  app.add_option("-o,--output", output, "output .qt file (default: the spec's name with .qt)");
+  app.add_option("--wo-res", wo_res, "entries per side of the parabolic grid over wo (default 16)")
+      ->check(CLI::Range(2, 256));
+  app.add_option("--wi-res", wi_res,
+                 "texels per side of each entry, a power of two up to 512 (default 64: 32 "
+                 "misses up to 10 % under a sun, see README)");
+  app.add_option("--tolerance", tolerance,
+                 "refine while a quadrant's error bound exceeds this fraction of the entry's "
+                 "mean (default 0.05)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_flag("--absolute", absolute, "read --tolerance as an absolute value (1/sr)");
+  app.add_flag("--no-tilt", no_tilt, "store f only, without the tilt derivatives");
+  app.add_option("--threads", threads, "worker threads (default: all cores)")
+      ->check(CLI::Range(1, 1024));
+  app.add_flag("--json", json, "print the summary as JSON");
+  app.add_flag("-q,--quiet", quiet, "no progress bar or summary");
+  app.set_version_flag("--version", basis::kVersion);
+
+  return basis::cli::run(app, argc, argv, [&] {
+    const basis::BrdfSpec spec = basis::read_brdf_spec(spec_path);
+    basis::BrdfTableOptions options;
+    options.wo_resolution = wo_res ? wo_res : spec.wo_resolution.value_or(16);
+    options.wi_resolution = wi_res ? wi_res : spec.wi_resolution.value_or(64);
+    if (!basis::is_valid_resolution(options.wi_resolution))
+      throw basis::cli::UsageError("--wi-res must be a power of two from 2 to 512, got " +
+                                   std::to_string(options.wi_resolution));
+    options.projection.tolerance = tolerance >= 0 ? tolerance : spec.tolerance.value_or(0.05);
+    if (absolute) options.projection.mode = basis::ProjectionOptions::Mode::absolute;
+    options.tilt_derivatives = !no_tilt;
+    if (output.empty())
+      output = std::filesystem::path(spec_path).replace_extension(".qt").filename().string();
+
+    const auto arena = basis::cli::thread_arena(threads);
+    basis::cli::ProgressBar progress("brdf2qt", quiet);
+    const auto start = std::chrono::steady_clock::now();
+    const basis::BrdfTable table = arena->execute(
+        [&] { return basis::tabulate_brdf(spec.brdf, options, progress.control()); });
+    progress.finish();
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+    const nlohmann::ordered_json parameters = {
+        {"wo_res", options.wo_resolution},
+        {"wi_res", options.wi_resolution},
+        {"tolerance", options.projection.tolerance},
+        {"mode", absolute ? "absolute" : "relative"},
+        {"tilt_derivatives", options.tilt_derivatives}};
+    const auto bytes = basis::encode_brdf_table(
+        table.view(), spec.model, spec.text, options.projection,
+        {"brdf2qt", basis::kVersion, parameters.dump(), {spec_path}});
+    basis::write_qt(output, bytes);
+    if (quiet) return;
+    const std::size_t nodes = table.trees.view().total_nodes();
+    if (json) {
+      std::cout << nlohmann::ordered_json{{"output", output},
+                                          {"entries", table.trees.size()},
+                                          {"nodes", nodes},
+                                          {"bytes", bytes.size()},
+                                          {"seconds", seconds}}
+                       .dump()
+                << "\n";
+      return;
+    }
+    std::printf("%s: %s, %d x %d entries of %d x %d texels, %zu nodes (%.1f per entry), "
+                "%.2f MiB, %.2f s\n",
+                output.c_str(), spec.model.c_str(), options.wo_resolution,
+                options.wo_resolution, options.wi_resolution, options.wi_resolution, nodes,
+                double(nodes) / double(table.trees.size()), double(bytes.size()) / (1 << 20),
+                seconds);
+  });
+}
