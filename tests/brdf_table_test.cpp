@@ -53,6 +53,7 @@ TEST_P(TableAlbedo, MatchesNumericIntegration) {
   const BrdfTable table = tabulate_brdf(m.brdf, options);
   const Quadtree light = constant_radiance();
   const int channels = channel_count(m.brdf);
+  double worst = 0;
   // At 0, 30, 60, 80 degrees, on grid rows and between entries.
   for (const double theta : {0.0, 30.0, 60.0, 80.0})
     for (const double phi : {0.0, 17.0, 45.0, 200.0}) {
@@ -62,8 +63,10 @@ TEST_P(TableAlbedo, MatchesNumericIntegration) {
         const double expected = testing::reference_albedo(m.brdf, wo, ch);
         EXPECT_NEAR(c.value[ch], expected, m.tolerance * expected)
             << m.name << " theta " << theta << " phi " << phi << " channel " << ch;
+        worst = std::max(worst, std::abs(c.value[ch] - expected) / expected);
       }
     }
+  std::printf("[  ALBEDO  ] %s: largest relative error %.4f\n", m.name.c_str(), worst);
 }
 
 INSTANTIATE_TEST_SUITE_P(Models, TableAlbedo, ::testing::Range(0, int(models().size())),

@@ -50,14 +50,16 @@ CaptureSet sample_captures(int count) {
 BrdfTable sample_table(int m) {
   BrdfTable t;
   t.wo_resolution = m;
-  t.trees = TreeSet({16, 1, 3});
+  t.trees = TreeSet({16, 1, 1});
+  t.tilt = TreeSet({16, 1, 2});
   for (int k = 0; k < m * m; ++k) {
-    Grid g(16, 1, 3);
     std::mt19937 rng(k);
     std::uniform_real_distribution<float> unit(0, 1);
-    for (float& v : g.texels)
-      v = unit(rng) * (k % 3 == 0 ? 0.01f : 1.0f);
+    Grid g(16, 1, 1), d(16, 1, 2);
+    for (float& v : g.texels) v = unit(rng) * (k % 3 == 0 ? 0.01f : 1.0f);
+    for (float& v : d.texels) v = unit(rng) - 0.5f;
     t.trees.append(project(g, {.tolerance = 0.1}).view());
+    t.tilt.append(project(d, {.tolerance = 0.1}).view());
   }
   t.model = "phong";
   t.spec = R"({"model": "phong", "exponent": 100})";
@@ -132,10 +134,15 @@ TEST(QtFormat, BrdfTableRoundTrip) {
   EXPECT_EQ(file.brdf_spec(), table.spec);
   EXPECT_TRUE(same_bytes(loaded.trees.nodes(), table.trees.view().nodes()));
   const Quadtree light = sample_tree(16, 1, 0);
+  ASSERT_TRUE(loaded.has_tilt());
+  EXPECT_TRUE(same_bytes(loaded.tilt.nodes(), table.tilt.view().nodes()));
   for (int j = 0; j < 4; ++j)
-    for (int i = 0; i < 4; ++i)
-      EXPECT_EQ(convolve_groups(loaded.entry(i, j), light.view()).value,
-                convolve_groups(table.view().entry(i, j), light.view()).value);
+    for (int i = 0; i < 4; ++i) {
+      EXPECT_EQ(convolve(loaded.entry(i, j), light.view()).value,
+                convolve(table.view().entry(i, j), light.view()).value);
+      EXPECT_EQ(convolve_groups(loaded.tilt_entry(i, j), light.view()).value,
+                convolve_groups(table.view().tilt_entry(i, j), light.view()).value);
+    }
   EXPECT_THROW(file.captures(), FileError);
 }
 

@@ -28,7 +28,9 @@ int main(int argc, char** argv) {
   bool absolute = false, quiet = false, no_tilt = false, json = false;
   app.add_option("spec", spec_path, "the BRDF spec (JSON)")->required();
   app.add_option("-o,--output", output, "output .qt file (default: the spec's name with .qt)");
-  app.add_option("--wo-res", wo_res, "entries per side of the parabolic grid over wo (default 16)")
+  app.add_option("--wo-res", wo_res,
+                 "entries per side of the parabolic grid over wo (default 33: bilinear "
+                 "interpolation between entries errs by up to 1.8 % at 16, 0.4 % at 33)")
       ->check(CLI::Range(2, 256));
   app.add_option("--wi-res", wi_res,
                  "texels per side of each entry, a power of two up to 512 (default 64: 32 "
@@ -48,8 +50,8 @@ int main(int argc, char** argv) {
   return basis::cli::run(app, argc, argv, [&] {
     const basis::BrdfSpec spec = basis::read_brdf_spec(spec_path);
     basis::BrdfTableOptions options;
-    options.wo_resolution = wo_res ? wo_res : spec.wo_resolution.value_or(16);
-    options.wi_resolution = wi_res ? wi_res : spec.wi_resolution.value_or(64);
+    options.wo_resolution = wo_res ? wo_res : spec.wo_resolution.value_or(options.wo_resolution);
+    options.wi_resolution = wi_res ? wi_res : spec.wi_resolution.value_or(options.wi_resolution);
     if (!basis::is_valid_resolution(options.wi_resolution))
       throw basis::cli::UsageError("--wi-res must be a power of two from 2 to 512, got " +
                                    std::to_string(options.wi_resolution));

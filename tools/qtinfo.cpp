@@ -26,8 +26,8 @@ int main(int argc, char** argv) {
                  "nearest the normal)");
   app.add_option("--index", index, "capture (or tree) index to draw; default 0");
   app.add_option("--group", group,
-                 "channel group to draw: 0 the function, 1 and 2 the tilt derivatives of BRDF "
-                 "tables")
+                 "what to draw of a BRDF table entry: 0 f, 1 and 2 its tilt derivatives about "
+                 "the tangent and the bitangent")
       ->check(CLI::Range(0, 2));
   app.add_option("--size", size, "picture size in pixels")->check(CLI::Range(16, 8192));
   app.set_version_flag("--version", basis::kVersion);
@@ -54,7 +54,11 @@ int main(int argc, char** argv) {
         throw basis::cli::UsageError("--entry " + std::to_string(i) + "," + std::to_string(j) +
                                      " outside the " + std::to_string(table.wo_resolution) + " x " +
                                      std::to_string(table.wo_resolution) + " table");
-      tree = table.entry(i, j);
+      if (group > 0 && !table.has_tilt())
+        throw basis::cli::UsageError("--group " + std::to_string(group) +
+                                     " but the table holds no tilt derivatives");
+      tree = group > 0 ? table.tilt_entry(i, j) : table.entry(i, j);
+      if (group > 0) --group;  // tilt trees hold the two derivatives as groups 0 and 1
     } else if (index >= 0) {
       if (std::size_t(index) >= file.trees().size())
         throw basis::cli::UsageError("--index " + std::to_string(index) + " but the file holds " +

@@ -217,61 +217,7 @@ void QtFile::verify() {
       fail(name_, "unknown content kind " + std::to_string(int(root->kind())));
   }
 
-  const fb::TreeSet* set = root->trees();
-  if (!set) fail(name_, "no trees");
-  const QuadtreeShape shape{set->resolution(), set->channels(), set->groups()};
-  if (!is_valid_resolution(shape.resolution))
-    fail(name_,
-         "resolution " + std::to_string(shape.resolution) + " is not a power of two from 2 to 512");
-  if (shape.channels != 1 && shape.channels != 3)
-    fail(name_, std::to_string(shape.channels) + " channels (1 or 3 expected)");
-  if (shape.groups < 1 || shape.groups > 3)
-    fail(name_, std::to_string(shape.groups) + " channel groups (1 to 3 expected)");
-  const int levels = std::countr_zero(unsigned(shape.resolution));
-  projection_.tolerance = set->tolerance();
-  if (!std::isfinite(projection_.tolerance) || projection_.tolerance < 0)
-    fail(name_, "tolerance is not a finite number >= 0");
-  if (set->tolerance_mode() != fb::ToleranceMode::Relative &&
-      set->tolerance_mode() != fb::ToleranceMode::Absolute)
-    fail(name_, "unknown tolerance mode");
-  projection_.mode = set->tolerance_mode() == fb::ToleranceMode::Relative
-                         ? ProjectionOptions::Mode::relative
-                         : ProjectionOptions::Mode::absolute;
-  projection_.max_depth = set->max_depth();
-  if (projection_.max_depth < 0 || projection_.max_depth > levels)
-    fail(name_, "max depth " + std::to_string(projection_.max_depth) + " outside 0.." +
-                    std::to_string(levels));
-
-  const auto extents = as_span<TreeExtent>(set->extents());
-  const auto nodes = as_span<Quad>(set->nodes());
-  const auto errors = as_span<Quad>(set->errors());
-  if (extents.empty()) fail(name_, "no trees");
-  std::uint64_t total = 0;
-  for (const TreeExtent& e : extents) {
-    if (e.first_node != total) fail(name_, "tree extents are not contiguous");
-    if (e.node_count == 0) fail(name_, "a tree has no nodes");
-    total += e.node_count;
-  }
-  if (nodes.size() != total * shape.stride())
-    fail(name_, "node data hold " + std::to_string(nodes.size()) + " quads, " +
-                    std::to_string(total * shape.stride()) + " expected");
-  if (errors.size() != total * shape.channels)
-    fail(name_, "error bounds hold " + std::to_string(errors.size()) + " quads, " +
-                    std::to_string(total * shape.channels) + " expected");
-  trees_ = TreeSetView(shape, extents, nodes, errors);
-
-  // Values and bounds: finite, bounds non-negative. Link quads are checked as links below.
-  std::vector<std::uint8_t> depth;
-  for (std::size_t i = 0; i < trees_.size(); ++i) {
-    const QuadtreeView tree = trees_.tree(i);
-    if (const std::string problem = check_tree(tree, levels, depth); !problem.empty())
-      fail(name_, "tree " + std::to_string(i) + ": " + problem);
-  }
-  if (!values_finite(nodes, shape.stride())) fail(name_, "a node holds a NaN or infinite value");
-  if (!all_finite(errors)) fail(name_, "an error bound is NaN or infinite");
-  for (const Quad& q : errors)
-    for (float e : q.lane)
-      if (e < 0) fail(name_, "an error bound is negative");
+  trees_ = verify_tree_set(root->trees(), "trees", &projection_);
 
   if (kind_ == QtKind::tree && trees_.size() != 1)
     fail(name_, "a single-tree file holds " + std::to_string(trees_.size()) + " trees");
@@ -285,6 +231,15 @@ void QtFile::verify() {
     if (trees_.size() != std::size_t(wo_resolution_) * wo_resolution_)
       fail(name_, "BRDF table of " + std::to_string(wo_resolution_) + "^2 entries holds " +
                       std::to_string(trees_.size()) + " trees");
+    if (trees_.shape().groups != 1) fail(name_, "BRDF table entries hold more than one group");
+    if (table->tilt()) {
+      tilt_ = verify_tree_set(table->tilt(), "tilt trees", nullptr);
+      if (tilt_.size() != trees_.size() || tilt_.shape().groups != 2 ||
+          tilt_.shape().resolution != trees_.shape().resolution ||
+          tilt_.shape().channels != trees_.shape().channels)
+        fail(name_, "tilt trees do not match the table's entries (count, resolution, channels, "
+                    "two groups)");
+    }
   }
   if (kind_ == QtKind::capture_set) {
     const fb::CaptureSet* set_info = root->capture_set();
@@ -314,7 +269,65 @@ void QtFile::verify() {
 BrdfTableView QtFile::brdf_table() const {
   if (kind_ != QtKind::brdf_table)
     fail(name_, std::string("holds a ") + to_string(kind_) + ", not a BRDF table");
-  return {wo_resolution_, trees_};
+  return {wo_resolution_, trees_, tilt_};
+}
+
+TreeSetView QtFile::verify_tree_set(const void* set_pointer, const std::string& what,
+                                    ProjectionOptions* projection) const {
+  const auto* set = static_cast<const fb::TreeSet*>(set_pointer);
+  if (!set) fail(name_, "no " + what);
+  const QuadtreeShape shape{set->resolution(), set->channels(), set->groups()};
+  if (!is_valid_resolution(shape.resolution))
+    fail(name_, what + ": resolution " + std::to_string(shape.resolution) +
+                    " is not a power of two from 2 to 512");
+  if (shape.channels != 1 && shape.channels != 3)
+    fail(name_, what + ": " + std::to_string(shape.channels) + " channels (1 or 3 expected)");
+  if (shape.groups < 1 || shape.groups > 3)
+    fail(name_, what + ": " + std::to_string(shape.groups) + " channel groups (1 to 3 expected)");
+  const int levels = std::countr_zero(unsigned(shape.resolution));
+  ProjectionOptions p;
+  p.tolerance = set->tolerance();
+  if (!std::isfinite(p.tolerance) || p.tolerance < 0)
+    fail(name_, what + ": tolerance is not a finite number >= 0");
+  if (set->tolerance_mode() != fb::ToleranceMode::Relative &&
+      set->tolerance_mode() != fb::ToleranceMode::Absolute)
+    fail(name_, what + ": unknown tolerance mode");
+  p.mode = set->tolerance_mode() == fb::ToleranceMode::Relative ? ProjectionOptions::Mode::relative
+                                                                : ProjectionOptions::Mode::absolute;
+  p.max_depth = set->max_depth();
+  if (p.max_depth < 0 || p.max_depth > levels)
+    fail(name_, what + ": max depth " + std::to_string(p.max_depth) + " outside 0.." +
+                    std::to_string(levels));
+  if (projection) *projection = p;
+
+  const auto extents = as_span<TreeExtent>(set->extents());
+  const auto nodes = as_span<Quad>(set->nodes());
+  const auto errors = as_span<Quad>(set->errors());
+  if (extents.empty()) fail(name_, "no " + what);
+  std::uint64_t total = 0;
+  for (const TreeExtent& e : extents) {
+    if (e.first_node != total) fail(name_, what + ": tree extents are not contiguous");
+    if (e.node_count == 0) fail(name_, what + ": a tree has no nodes");
+    total += e.node_count;
+  }
+  if (nodes.size() != total * shape.stride())
+    fail(name_, what + ": node data hold " + std::to_string(nodes.size()) + " quads, " +
+                    std::to_string(total * shape.stride()) + " expected");
+  if (errors.size() != total * shape.channels)
+    fail(name_, what + ": error bounds hold " + std::to_string(errors.size()) + " quads, " +
+                    std::to_string(total * shape.channels) + " expected");
+  const TreeSetView view(shape, extents, nodes, errors);
+  std::vector<std::uint8_t> depth;
+  for (std::size_t i = 0; i < view.size(); ++i)
+    if (const std::string problem = check_tree(view.tree(i), levels, depth); !problem.empty())
+      fail(name_, what + ": tree " + std::to_string(i) + ": " + problem);
+  if (!values_finite(nodes, shape.stride()))
+    fail(name_, what + ": a node holds a NaN or infinite value");
+  if (!all_finite(errors)) fail(name_, what + ": an error bound is NaN or infinite");
+  for (const Quad& q : errors)
+    for (float e : q.lane)
+      if (e < 0) fail(name_, what + ": an error bound is negative");
+  return view;
 }
 
 std::string QtFile::brdf_model() const {
@@ -412,11 +425,16 @@ std::vector<std::byte> encode_brdf_table(const BrdfTableView& table, const std::
   check_encodable(table.trees);
   if (table.trees.size() != std::size_t(table.wo_resolution) * table.wo_resolution)
     throw std::invalid_argument("BRDF table entries do not match its resolution");
-  flatbuffers::FlatBufferBuilder b(table.trees.nodes().size_bytes() +
-                                   table.trees.errors().size_bytes() + 4096);
+  if (table.has_tilt() && table.tilt.size() != table.trees.size())
+    throw std::invalid_argument("BRDF table tilt trees do not match its entries");
+  flatbuffers::FlatBufferBuilder b(
+      table.trees.nodes().size_bytes() + table.trees.errors().size_bytes() +
+      table.tilt.nodes().size_bytes() + table.tilt.errors().size_bytes() + 4096);
   const auto trees = build_tree_set(b, table.trees, projection);
-  const auto info =
-      fb::CreateBrdfTable(b, table.wo_resolution, b.CreateString(model), b.CreateString(spec));
+  flatbuffers::Offset<fb::TreeSet> tilt = 0;
+  if (table.has_tilt()) tilt = build_tree_set(b, table.tilt, projection);
+  const auto info = fb::CreateBrdfTable(b, table.wo_resolution, b.CreateString(model),
+                                        b.CreateString(spec), tilt);
   const auto prov = build_provenance(b, provenance);
   return finish(b, fb::Kind::BrdfTable, trees, info, 0, prov);
 }

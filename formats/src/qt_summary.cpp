@@ -54,9 +54,14 @@ ordered_json summarise(const QtFile& file) {
                   {"dense_bytes", dense_bytes},
                   {"compression", dense_bytes / tree_bytes}};
   if (file.kind() == QtKind::brdf_table) {
-    j["brdf_table"] = {{"wo_resolution", file.brdf_table().wo_resolution},
+    const BrdfTableView table = file.brdf_table();
+    const double tilt_bytes = double(table.tilt.nodes().size_bytes() + table.tilt.errors().size_bytes());
+    j["brdf_table"] = {{"wo_resolution", table.wo_resolution},
                        {"model", file.brdf_model()},
-                       {"spec", file.brdf_spec()}};
+                       {"spec", file.brdf_spec()},
+                       {"tilt_trees", table.tilt.size()},
+                       {"tilt_nodes", table.has_tilt() ? table.tilt.total_nodes() : 0},
+                       {"tilt_bytes", tilt_bytes}};
   }
   if (file.kind() == QtKind::capture_set) {
     const CaptureSetView c = file.captures();
@@ -148,6 +153,19 @@ std::string summary_text(const QtFile& file) {
                   lo[0].get<double>(), lo[1].get<double>(), lo[2].get<double>(),
                   hi[0].get<double>(), hi[1].get<double>(), hi[2].get<double>());
     out << line;
+  }
+  if (j.contains("brdf_table")) {
+    const auto& t = j["brdf_table"];
+    if (t["tilt_trees"].get<std::size_t>() > 0) {
+      std::snprintf(line, sizeof line,
+                    "tilt         %zu trees of two tilt derivatives, %zu nodes, %s (rotation "
+                    "compensation)\n",
+                    t["tilt_trees"].get<std::size_t>(), t["tilt_nodes"].get<std::size_t>(),
+                    bytes_text(t["tilt_bytes"].get<double>()).c_str());
+      out << line;
+    } else {
+      out << "tilt         none (no rotation compensation)\n";
+    }
   }
   const auto& prov = j["provenance"];
   if (!prov["tool"].get<std::string>().empty()) {

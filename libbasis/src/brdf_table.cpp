@@ -56,7 +56,7 @@ BrdfTable tabulate_brdf(const Brdf& brdf, const BrdfTableOptions& options,
   if (!is_valid_resolution(options.wi_resolution))
     throw std::invalid_argument("wi resolution must be a power of two from 2 to 512");
   const std::size_t count = std::size_t(m) * m;
-  std::vector<Quadtree> entries(count);
+  std::vector<Quadtree> entries(count), tilts(options.tilt_derivatives ? count : 0);
   std::atomic<std::size_t> done{0};
   std::atomic<bool> stop{false};
   control.report(0, count);
@@ -67,7 +67,29 @@ BrdfTable tabulate_brdf(const Brdf& brdf, const BrdfTableOptions& options,
       return;
     }
     const Vec3 wo = table_outgoing(int(k % m), int(k / m), m);
-    entries[k] = project(tabulate_entry(brdf, wo, options), options.projection);
+    const Grid grid = tabulate_entry(brdf, wo, options);
+    Grid base(grid.resolution, grid.channels, 1);
+    std::copy(grid.texels.begin(), grid.texels.begin() + std::ptrdiff_t(base.texels.size()),
+              base.texels.begin());
+    entries[k] = project(base, options.projection);
+    if (!options.tilt_derivatives) return;
+    Grid tilt(grid.resolution, grid.channels, 2);
+    std::copy(grid.texels.begin() + std::ptrdiff_t(base.texels.size()), grid.texels.end(),
+              tilt.texels.begin());
+    // Absolute tolerance for both derivative groups: the scaled tolerance of f, taken from the
+    // brightest channel's mean.
+    double scale = 0;
+    for (int c = 0; c < base.channels; ++c)
+      scale = std::max(scale, std::abs(base.mean(0, c)));
+    ProjectionOptions tilt_projection = options.projection;
+    tilt_projection.mode = ProjectionOptions::Mode::absolute;
+    tilt_projection.tolerance =
+        options.tilt_tolerance_scale * (options.projection.mode == ProjectionOptions::Mode::relative
+                                            ? options.projection.tolerance * scale
+                                            : options.projection.tolerance);
+    tilt_projection.cut_on_all_groups = true;
+    tilt_projection.group_tolerance_scale = 1;
+    tilts[k] = project(tilt, tilt_projection);
     control.report(++done, count);
   });
   if (stop) throw Cancelled();
@@ -77,6 +99,10 @@ BrdfTable tabulate_brdf(const Brdf& brdf, const BrdfTableOptions& options,
   table.model = model_name(brdf);
   table.trees = TreeSet(entries.front().shape);
   for (const Quadtree& e : entries) table.trees.append(e.view());
+  if (!tilts.empty()) {
+    table.tilt = TreeSet(tilts.front().shape);
+    for (const Quadtree& t : tilts) table.tilt.append(t.view());
+  }
   return table;
 }
 
@@ -105,13 +131,14 @@ Bilinear locate(const Vec3& wo, int m) {
 
 template <typename Entry>
 Convolution interpolate(const BrdfTableView& table, const Vec3& wo, Entry entry) {
+  // entry(i, j) gives the convolution of entry (i, j).
   const Bilinear b = locate(wo, table.wo_resolution);
   Convolution result;
   for (int dj = 0; dj < 2; ++dj)
     for (int di = 0; di < 2; ++di) {
       const double weight = (di ? b.fx : 1 - b.fx) * (dj ? b.fy : 1 - b.fy);
       if (weight == 0) continue;
-      const Convolution c = entry(table.entry(b.i0 + di, b.j0 + dj));
+      const Convolution c = entry(b.i0 + di, b.j0 + dj);
       for (int ch = 0; ch < 3; ++ch) {
         result.value[ch] += float(weight * std::numbers::pi * c.value[ch]);
         result.bound[ch] += float(weight * std::numbers::pi * c.bound[ch]);
@@ -123,7 +150,8 @@ Convolution interpolate(const BrdfTableView& table, const Vec3& wo, Entry entry)
 }  // namespace
 
 Convolution reflect(const BrdfTableView& table, const QuadtreeView& radiance, const Vec3& wo) {
-  return interpolate(table, wo, [&](const QuadtreeView& e) { return convolve(e, radiance); });
+  return interpolate(table, wo,
+                     [&](int i, int j) { return convolve(table.entry(i, j), radiance); });
 }
 
 Convolution reflect_tilted(const BrdfTableView& table, const QuadtreeView& radiance,
@@ -133,14 +161,13 @@ Convolution reflect_tilted(const BrdfTableView& table, const QuadtreeView& radia
   Vec3 wo = tilt_rotation(tilt).transpose() * wo_shading;
   wo.z() = std::max(0.0, wo.z());
   if (mode == TiltCompensation::reparametrised) return reflect(table, radiance, wo);
-  if (table.trees.shape().groups < 3)
+  if (!table.has_tilt())
     throw std::invalid_argument("the BRDF table holds no tilt derivatives to compensate with");
-  return interpolate(table, wo, [&](const QuadtreeView& e) {
-    const GroupConvolution g = convolve_groups(e, radiance);
-    Convolution c;
+  return interpolate(table, wo, [&](int i, int j) {
+    Convolution c = convolve(table.entry(i, j), radiance);
+    const GroupConvolution d = convolve_groups(table.tilt_entry(i, j), radiance);
     for (int ch = 0; ch < 3; ++ch)
-      c.value[ch] = float(g.value[0][ch] + tilt.x * g.value[1][ch] + tilt.y * g.value[2][ch]);
-    c.bound = g.bound;
+      c.value[ch] += float(tilt.x * d.value[0][ch] + tilt.y * d.value[1][ch]);
     return c;
   });
 }

@@ -102,23 +102,24 @@ void QuadtreeProjector::project(const Grid& grid, const ProjectionOptions& optio
 
   const int channels = grid.channels;
   const int planes = channels * grid.groups;
+  const int bounded = options.cut_on_all_groups ? planes : channels;  // planes with error bounds
 
   // Scratch levels 0 .. levels-1; level `levels` is the grid itself (error 0). Pointers to
-  // every plane of every level, values for all planes, errors for group 0.
+  // every plane of every level, values for all planes, errors for the bounded ones.
   std::size_t total = 0;
   for (int k = 0; k < levels; ++k)
     total += std::size_t(1) << (2 * k);
   values_.resize(total * planes);
-  errors_.resize(total * channels);
+  errors_.resize(total * bounded);
   value_planes_.assign(std::size_t(levels + 1) * planes, nullptr);
-  error_planes_.assign(std::size_t(levels + 1) * channels, nullptr);
+  error_planes_.assign(std::size_t(levels + 1) * bounded, nullptr);
   std::size_t offset = 0;
   for (int k = 0; k < levels; ++k) {
     const std::size_t cells = std::size_t(1) << (2 * k);
     for (int p = 0; p < planes; ++p)
       value_planes_[k * planes + p] = values_.data() + (offset * planes + p * cells);
-    for (int c = 0; c < channels; ++c)
-      error_planes_[k * channels + c] = errors_.data() + (offset * channels + c * cells);
+    for (int c = 0; c < bounded; ++c)
+      error_planes_[k * bounded + c] = errors_.data() + (offset * bounded + c * cells);
     offset += cells;
   }
   for (int p = 0; p < planes; ++p)
@@ -129,14 +130,16 @@ void QuadtreeProjector::project(const Grid& grid, const ProjectionOptions& optio
   for (int k = levels; k >= 1; --k)
     for (int p = 0; p < planes; ++p)
       build_level(value_planes_[k * planes + p],
-                  p < channels && k < levels ? error_planes_[k * channels + p] : nullptr, 1 << k,
+                  p < bounded && k < levels ? error_planes_[k * bounded + p] : nullptr, 1 << k,
                   value_planes_[(k - 1) * planes + p],
-                  p < channels ? error_planes_[(k - 1) * channels + p] : nullptr);
+                  p < bounded ? error_planes_[(k - 1) * bounded + p] : nullptr);
 
+  // Tolerances: group 0's per channel; further groups' a multiple of their channel's.
   std::vector<double> means(channels);
-  for (int c = 0; c < channels; ++c)
-    means[c] = value_planes_[c][0];
-  const std::vector<float> tol = absolute_tolerances(options, means);
+  for (int c = 0; c < channels; ++c) means[c] = value_planes_[c][0];
+  std::vector<float> tol = absolute_tolerances(options, means);
+  for (int p = channels; p < bounded; ++p)
+    tol.push_back(float(options.group_tolerance_scale * tol[p % channels]));
 
   // Top-down cut, emitting nodes in depth-first pre-order with an explicit stack of cells still
   // to emit and the parent link each one fills.
@@ -169,16 +172,15 @@ void QuadtreeProjector::project(const Grid& grid, const ProjectionOptions& optio
       std::memcpy(quads[1 + p].lane + 2, src + row1, 2 * sizeof(float));
     }
     int refine = 0;
-    for (int c = 0; c < channels; ++c) {
-      if (k == levels) {
-        errors[c] = Quad{};
-        continue;
+    for (int p = 0; p < bounded; ++p) {
+      Quad error{};
+      if (k < levels) {
+        const float* src = error_planes_[k * bounded + p];
+        std::memcpy(error.lane, src + row0, 2 * sizeof(float));
+        std::memcpy(error.lane + 2, src + row1, 2 * sizeof(float));
       }
-      const float* src = error_planes_[k * channels + c];
-      std::memcpy(errors[c].lane, src + row0, 2 * sizeof(float));
-      std::memcpy(errors[c].lane + 2, src + row1, 2 * sizeof(float));
-      for (int q = 0; q < 4; ++q)
-        refine |= int(errors[c].lane[q] > tol[c]) << q;
+      if (p < channels) errors[p] = error;  // stored bounds: group 0
+      for (int q = 0; q < 4; ++q) refine |= int(error.lane[q] > tol[p]) << q;
     }
     if (k >= max_depth) refine = 0;
     const std::int32_t no_children[4] = {0, 0, 0, 0};

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <fcntl.h>
+#include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -34,8 +35,9 @@ inline std::string slurp(const std::filesystem::path& path) {
   return s.str();
 }
 
+// Runs a tool; when interrupt_after_ms >= 0, sends it SIGINT after that many milliseconds.
 inline ToolResult run_tool(const std::string& tool, const std::vector<std::string>& args,
-                           const std::string& working_directory = "") {
+                           const std::string& working_directory = "", int interrupt_after_ms = -1) {
   const std::filesystem::path exe = tool_directory() / tool;
   const std::filesystem::path capture =
       std::filesystem::temp_directory_path() / ("basis_tool_" + std::to_string(::getpid()));
@@ -59,6 +61,10 @@ inline ToolResult run_tool(const std::string& tool, const std::vector<std::strin
   ToolResult result;
   if (posix_spawn(&pid, exe.c_str(), &actions, nullptr, argv.data(), environ) == 0) {
     int status = 0;
+    if (interrupt_after_ms >= 0) {
+      ::usleep(useconds_t(interrupt_after_ms) * 1000);
+      ::kill(pid, SIGINT);
+    }
     ::waitpid(pid, &status, 0);
     result.status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
   }

@@ -65,6 +65,9 @@ class QtFile {
  private:
   QtFile() = default;
   void verify();
+  // Checks one tree set of the buffer; `what` names it in errors.
+  TreeSetView verify_tree_set(const void* set, const std::string& what,
+                              ProjectionOptions* projection) const;
   // The file's bytes, 16-byte aligned: a read-only memory map of a file, or a copy in memory.
   class Buffer {
    public:
@@ -90,6 +93,7 @@ class QtFile {
   std::uint32_t version_ = 0;
   ProjectionOptions projection_;
   TreeSetView trees_;
+  TreeSetView tilt_;
   int wo_resolution_ = 0;
   CaptureSetView captures_;
 };

@@ -5,16 +5,11 @@
 #include <cstddef>
 #include <functional>
 #include <span>
-#include <stdexcept>
 #include <string>
 
-namespace basis {
+#include "basis/file_error.h"
 
-// Any failure to read or write a file; what() is one line that names the file and the problem.
-class FileError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
+namespace basis {
 
 // Writes `data` to `path` atomically. A destination that exists and is not a regular file (a
 // device such as /dev/null, a pipe) is written directly. Throws FileError; on failure no

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "basis/brdf.h"
+#include "basis/file_error.h"
 
 namespace basis {
 

@@ -14,23 +14,30 @@
 namespace basis {
 
 // Entry (i, j) sits at parabolic coordinates s_i = -1 + 2 i / (M - 1), t_j = -1 + 2 j / (M - 1)
-// and is tree j * M + i. Group 0 of each tree is f(wi, wo); when the trees hold three groups,
-// groups 1 and 2 are the derivatives used for rotation compensation (see rotation.h).
+// and is tree j * M + i of `trees`, which hold f(wi, wo). When present, tree j * M + i of `tilt`
+// holds the entry's two tilt derivatives (rotation.h) as channel groups 0 and 1, cut on its own
+// so that lookups without compensation do not pay for it.
 struct BrdfTableView {
   int wo_resolution = 0;
   TreeSetView trees;
+  TreeSetView tilt;  // empty when the table has no tilt derivatives
 
   QuadtreeView entry(int i, int j) const { return trees.tree(std::size_t(j) * wo_resolution + i); }
+  QuadtreeView tilt_entry(int i, int j) const {
+    return tilt.tree(std::size_t(j) * wo_resolution + i);
+  }
+  bool has_tilt() const { return tilt.size() > 0; }
 };
 
 // An owning BRDF table with the description of what it tabulates.
 struct BrdfTable {
   int wo_resolution = 0;
   TreeSet trees;
+  TreeSet tilt;
   std::string model;  // model name (lambert, phong, ..., merl)
   std::string spec;   // the JSON spec it was tabulated from
 
-  BrdfTableView view() const { return {wo_resolution, trees.view()}; }
+  BrdfTableView view() const { return {wo_resolution, trees.view(), tilt.view()}; }
 };
 
 // The outgoing direction of entry (i, j): the parabolic grid point, pulled inside the disk to
@@ -43,8 +50,11 @@ struct BrdfTableOptions {
   int wo_resolution = 33;  // M, entries per side of the parabolic grid (2..256)
   int wi_resolution = 64;  // N, texels per side of each entry (power of two, 2..512)
   ProjectionOptions projection;
-  bool tilt_derivatives = true;  // store groups 1 and 2 for rotation compensation
+  bool tilt_derivatives = true;  // also tabulate the tilt derivatives (rotation compensation)
   double derivative_step = 1e-3;  // radians, central differences of tilt_derivative
+  // The tilt trees are refined where their bound exceeds this multiple of the entry's own
+  // tolerance: their contribution is scaled by the tilt (0.1 rad is 5.7 degrees).
+  double tilt_tolerance_scale = 10;
   SupersampleOptions supersampling{.relative_tolerance = 2e-3,
                                    .absolute_floor = 1e-6,
                                    .floor_fraction_of_mean = 1,
@@ -55,7 +65,7 @@ struct BrdfTableOptions {
 
 // Texel averages over wi of one entry: group 0 f(wi, wo) per channel, and with
 // tilt_derivatives groups 1 and 2 the tilt derivatives (rotation.h) about the tangent and the
-// bitangent.
+// bitangent (tabulate_brdf puts them into separate trees).
 Grid tabulate_entry(const Brdf& brdf, const Vec3& wo, const BrdfTableOptions& options);
 
 // Tabulates every entry in parallel (deterministic whatever the thread count) and projects it.
@@ -79,7 +89,8 @@ enum class TiltCompensation {
 
 // Reflected radiance at a surface tilted by `tilt` against the frame `radiance` was recorded
 // in; wo_shading is in the tilted (shading) frame. The bound is that of the re-parametrised
-// term; the compensation itself is a first-order estimate.
+// term; the compensation itself is a first-order estimate. Compensation needs a table with
+// tilt derivatives (std::invalid_argument otherwise).
 Convolution reflect_tilted(const BrdfTableView& table, const QuadtreeView& radiance,
                            const Vec3& wo_shading, const Tilt& tilt, TiltCompensation mode);
 

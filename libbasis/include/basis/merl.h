@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "basis/file_error.h"
 #include "basis/measured.h"
 
 namespace basis {

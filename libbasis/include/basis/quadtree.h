@@ -77,12 +77,18 @@ struct Quadtree {
 
 // Where projection cuts the tree. A quadrant is refined while, for some channel c of group 0,
 // its error bound exceeds the tolerance: tolerance * |mean_c| (relative, the default; mean_c is
-// the channel's mean over the square) or tolerance itself (absolute).
+// the channel's mean over the square) or tolerance itself (absolute). Stored error bounds are
+// group 0's.
 struct ProjectionOptions {
   enum class Mode { relative, absolute };
   double tolerance = 0.05;
   Mode mode = Mode::relative;
   int max_depth = 0;  // finest quadrant level, 1..log2(N); 0 means log2(N), the texels
+  // Also refine where another channel group's bound exceeds group_tolerance_scale times group
+  // 0's tolerance of the same channel (for groups that must stay accurate, such as the tilt
+  // derivatives, whose contribution is scaled by a small tilt).
+  bool cut_on_all_groups = false;
+  double group_tolerance_scale = 10;
 };
 
 // Builds and cuts quadtrees (section 2.2): bottom-up averages and error bounds

@@ -1,0 +1,74 @@
+// Distant lighting from a latitude-longitude radiance map (z up, the convention of latlong.h):
+// point lookups, box-filtered lookups over a solid angle, and the bright pixels (a sun) that
+// captures integrate exactly instead of sampling them.
+#pragma once
+
+#include <span>
+#include <vector>
+
+#include "basis/brdf.h"
+#include "basis/image.h"
+#include "basis/vector.h"
+
+namespace basis {
+
+// Texels an environment map had to repair: NaN, +-Inf and negative values are set to 0 and
+// never reach a capture.
+struct EnvironmentRepairs {
+  long long nan = 0;
+  long long infinite = 0;
+  long long negative = 0;
+  long long total() const { return nan + infinite + negative; }
+};
+
+class Environment {
+ public:
+  // From a lat-long image (1 channel: grey; 3 or more: RGB, extra channels ignored), rotated by
+  // `rotate_z_degrees` about z (a feature at azimuth phi moves to phi + rotation). Pixels whose
+  // luminance exceeds 8 times the map's mean (at most 0.5 % of them) are bright: their excess
+  // over that level is kept apart and splatted exactly by captures.
+  explicit Environment(const Image& latlong, double rotate_z_degrees = 0);
+  // A constant environment.
+  static Environment constant(const Color& radiance);
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+  const EnvironmentRepairs& repairs() const { return repairs_; }
+
+  // Radiance of the pixel seen in world direction w (bright part included).
+  Color radiance(const Vec3& w) const;
+  // Mean radiance of the smooth part (bright excess removed) over the lat-long box centred on
+  // w whose solid angle is about `solid_angle` (a summed-area table, exact for the box).
+  Color smooth_average(const Vec3& w, double solid_angle) const;
+
+  struct BrightPixel {
+    int row, column;
+    Color excess;  // radiance above the smooth part's level
+  };
+  std::span<const BrightPixel> bright_pixels() const { return bright_; }
+  // World direction of map position (column x, row y) in pixels, rotation applied.
+  Vec3 direction(double x, double y) const;
+  // Solid angle of the map band between rows y0 and y1 (fractional) and columns spanning dx.
+  double band_solid_angle(double y0, double y1, double dx) const;
+
+  // Integral over the sphere of L(w) max(0, w . n) dw, directly over the map's pixels: the
+  // irradiance on a surface of normal n, for references.
+  Color irradiance(const Vec3& n, int subsamples = 4) const;
+
+ private:
+  Environment() = default;
+  Color pixel(int row, int column) const;
+  Color box_integral(double x0, double x1, double y0, double y1) const;
+
+  int width_ = 0, height_ = 0;
+  double rotation_ = 0;  // radians
+  std::vector<float> pixels_;  // RGB rows, bright excess included
+  std::vector<float> smooth_;  // RGB rows, bright excess removed
+  std::vector<double> table_;  // (H+1) x (W+1) x 3 summed areas of smooth radiance x solid angle
+  std::vector<double> row_solid_angle_;  // per pixel of each row
+  std::vector<BrightPixel> bright_;
+  EnvironmentRepairs repairs_;
+  bool constant_ = false;
+};
+
+}  // namespace basis

@@ -1,0 +1,190 @@
+#include "basis/environment.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+#include "basis/latlong.h"
+
+namespace basis {
+
+namespace {
+
+double luminance(const float* rgb) { return 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2]; }
+
+}  // namespace
+
+Environment::Environment(const Image& latlong, double rotate_z_degrees)
+    : width_(latlong.width),
+      height_(latlong.height),
+      rotation_(rotate_z_degrees * std::numbers::pi / 180) {
+  if (width_ < 2 || height_ < 1) throw std::invalid_argument("environment map has no pixels");
+  if (!std::isfinite(rotation_)) throw std::invalid_argument("environment rotation is not finite");
+  pixels_.resize(std::size_t(width_) * height_ * 3);
+  for (int y = 0; y < height_; ++y)
+    for (int x = 0; x < width_; ++x)
+      for (int c = 0; c < 3; ++c) {
+        float v = latlong.at(x, y, latlong.channels >= 3 ? c : 0);
+        if (std::isnan(v)) {
+          ++repairs_.nan;
+          v = 0;
+        } else if (std::isinf(v)) {
+          ++repairs_.infinite;
+          v = 0;
+        } else if (v < 0) {
+          ++repairs_.negative;
+          v = 0;
+        }
+        pixels_[(std::size_t(y) * width_ + x) * 3 + c] = v;
+      }
+  row_solid_angle_.resize(height_);
+  for (int y = 0; y < height_; ++y) row_solid_angle_[y] = latlong_pixel_solid_angle(y, width_, height_);
+
+  // Bright level: 8 x the mean luminance, raised so that at most 0.5 % of pixels exceed it.
+  double mean = 0;
+  std::vector<double> lum(std::size_t(width_) * height_);
+  for (int y = 0; y < height_; ++y)
+    for (int x = 0; x < width_; ++x) {
+      lum[std::size_t(y) * width_ + x] = luminance(&pixels_[(std::size_t(y) * width_ + x) * 3]);
+      mean += lum[std::size_t(y) * width_ + x] * row_solid_angle_[y];
+    }
+  mean /= 4 * std::numbers::pi;
+  double level = 8 * mean;
+  std::vector<double> sorted = lum;
+  const std::size_t keep = std::max<std::size_t>(1, sorted.size() / 200);
+  std::nth_element(sorted.begin(), sorted.end() - keep, sorted.end());
+  level = std::max(level, *(sorted.end() - keep));
+  smooth_ = pixels_;
+  for (int y = 0; y < height_; ++y)
+    for (int x = 0; x < width_; ++x) {
+      const double l = lum[std::size_t(y) * width_ + x];
+      if (!(l > level) || level <= 0) continue;
+      float* s = &smooth_[(std::size_t(y) * width_ + x) * 3];
+      const float* p = &pixels_[(std::size_t(y) * width_ + x) * 3];
+      BrightPixel b{y, x, {}};
+      for (int c = 0; c < 3; ++c) {
+        s[c] = float(p[c] * level / l);
+        b.excess[c] = double(p[c]) - s[c];
+      }
+      bright_.push_back(b);
+    }
+
+  // Summed areas of smooth radiance times pixel solid angle.
+  table_.assign(std::size_t(height_ + 1) * (width_ + 1) * 3, 0.0);
+  auto at = [&](int y, int x, int c) -> double& {
+    return table_[(std::size_t(y) * (width_ + 1) + x) * 3 + c];
+  };
+  for (int y = 0; y < height_; ++y)
+    for (int x = 0; x < width_; ++x)
+      for (int c = 0; c < 3; ++c)
+        at(y + 1, x + 1, c) = at(y, x + 1, c) + at(y + 1, x, c) - at(y, x, c) +
+                              smooth_[(std::size_t(y) * width_ + x) * 3 + c] * row_solid_angle_[y];
+}
+
+Environment Environment::constant(const Color& radiance) {
+  Environment e;
+  e.constant_ = true;
+  e.width_ = e.height_ = 1;
+  e.pixels_ = {float(radiance[0]), float(radiance[1]), float(radiance[2])};
+  e.smooth_ = e.pixels_;
+  return e;
+}
+
+Vec3 Environment::direction(double x, double y) const {
+  const Vec3 d = latlong_to_direction({x, y}, width_, height_);
+  const double c = std::cos(rotation_), s = std::sin(rotation_);
+  return {c * d.x() - s * d.y(), s * d.x() + c * d.y(), d.z()};
+}
+
+double Environment::band_solid_angle(double y0, double y1, double dx) const {
+  return 2 * std::numbers::pi * dx / width_ *
+         (std::cos(std::numbers::pi * y0 / height_) - std::cos(std::numbers::pi * y1 / height_));
+}
+
+Color Environment::pixel(int row, int column) const {
+  const float* p = &pixels_[(std::size_t(row) * width_ + column) * 3];
+  return {p[0], p[1], p[2]};
+}
+
+Color Environment::radiance(const Vec3& w) const {
+  if (constant_) return pixel(0, 0);
+  const double c = std::cos(rotation_), s = std::sin(rotation_);
+  const Vec3 map(c * w.x() + s * w.y(), -s * w.x() + c * w.y(), w.z());
+  const Vec2 p = direction_to_latlong(map, width_, height_);
+  return pixel(std::clamp(int(p.y()), 0, height_ - 1), std::clamp(int(p.x()), 0, width_ - 1));
+}
+
+Color Environment::box_integral(double x0, double x1, double y0, double y1) const {
+  // The integral over [0,x) x [0,y) of a piecewise-constant image is bilinear in each pixel,
+  // so interpolating the summed-area table is exact for fractional boxes.
+  auto corner = [&](double x, double y, int c) {
+    const int ix = std::clamp(int(x), 0, width_ - 1), iy = std::clamp(int(y), 0, height_ - 1);
+    const double fx = x - ix, fy = y - iy;
+    auto t = [&](int yy, int xx) { return table_[(std::size_t(yy) * (width_ + 1) + xx) * 3 + c]; };
+    return (1 - fx) * (1 - fy) * t(iy, ix) + fx * (1 - fy) * t(iy, ix + 1) +
+           (1 - fx) * fy * t(iy + 1, ix) + fx * fy * t(iy + 1, ix + 1);
+  };
+  Color sum;
+  for (int c = 0; c < 3; ++c)
+    sum[c] = corner(x1, y1, c) - corner(x0, y1, c) - corner(x1, y0, c) + corner(x0, y0, c);
+  return sum;
+}
+
+Color Environment::smooth_average(const Vec3& w, double solid_angle) const {
+  if (constant_) return pixel(0, 0);
+  const double c = std::cos(rotation_), s = std::sin(rotation_);
+  const Vec3 map(c * w.x() + s * w.y(), -s * w.x() + c * w.y(), w.z());
+  const Vec2 p = direction_to_latlong(map, width_, height_);
+  // A box of the given solid angle: side sqrt(omega) in theta, sqrt(omega) / sin(theta) in phi.
+  const double side = std::sqrt(std::max(solid_angle, 0.0));
+  const double sin_theta = std::max(std::sin(std::numbers::pi * p.y() / height_), 1e-6);
+  const double half_y = std::max(0.5 * side / std::numbers::pi * height_, 0.5);
+  const double half_x =
+      std::min(0.5 * width_, std::max(0.5 * side / sin_theta / (2 * std::numbers::pi) * width_, 0.5));
+  const double y0 = std::max(0.0, p.y() - half_y), y1 = std::min(double(height_), p.y() + half_y);
+  double x0 = p.x() - half_x, x1 = p.x() + half_x;
+  Color sum{0, 0, 0};
+  double area = 0;
+  auto add = [&](double a, double b) {  // columns [a, b) inside [0, W]
+    const Color part = box_integral(a, b, y0, y1);
+    for (int k = 0; k < 3; ++k) sum[k] += part[k];
+    area += band_solid_angle(y0, y1, b - a);
+  };
+  if (x0 < 0) {
+    add(0, x1);
+    add(x0 + width_, width_);
+  } else if (x1 > width_) {
+    add(x0, width_);
+    add(0, x1 - width_);
+  } else {
+    add(x0, x1);
+  }
+  if (area <= 0) return radiance(w);
+  return {sum[0] / area, sum[1] / area, sum[2] / area};
+}
+
+Color Environment::irradiance(const Vec3& n, int subsamples) const {
+  if (constant_) {
+    const Color l = pixel(0, 0);
+    return {l[0] * std::numbers::pi, l[1] * std::numbers::pi, l[2] * std::numbers::pi};
+  }
+  Color sum{0, 0, 0};
+  const double inv = 1.0 / subsamples;
+  for (int y = 0; y < height_; ++y)
+    for (int sy = 0; sy < subsamples; ++sy) {
+      const double y0 = y + sy * inv, y1 = y0 + inv;
+      const double dw = band_solid_angle(y0, y1, inv);
+      for (int x = 0; x < width_; ++x) {
+        const Color l = pixel(y, x);
+        for (int sx = 0; sx < subsamples; ++sx) {
+          const double cosine = direction(x + (sx + 0.5) * inv, (y0 + y1) / 2).dot(n);
+          if (cosine <= 0) continue;
+          for (int c = 0; c < 3; ++c) sum[c] += l[c] * cosine * dw;
+        }
+      }
+    }
+  return sum;
+}
+
+}  // namespace basis
