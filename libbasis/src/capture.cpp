@@ -1,11 +1,20 @@
 #include "basis/capture.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <numbers>
 #include <stdexcept>
 #include <vector>
 
+#include "basis/file_error.h"
 #include "basis/hemisphere.h"
 
 namespace basis {
@@ -22,6 +31,9 @@ std::uint64_t mix(std::uint64_t x) {
 
 double unit(std::uint64_t x) { return double(mix(x) >> 11) * 0x1.0p-53; }
 
+// Angle between two unit directions.
+double angle_between(const Vec3& a, const Vec3& b) { return std::atan2(a.cross(b).norm(), a.dot(b)); }
+
 }  // namespace
 
 Grid capture(const Environment& environment, const RayScene* scene, const Vec3& position,
@@ -34,25 +46,28 @@ Grid capture(const Environment& environment, const RayScene* scene, const Vec3& 
   Grid grid(n, 3);
   const Vec3 origin = position + frame.normal * options.ray_offset;
   const double texel_area = 1.0 / (double(n) * n);
-  const double stratum_area = texel_area / (k * k);
   const std::uint64_t stream = mix(options.seed ^ mix(index));
 
-  // Strata: one ray each, traced in batches of a row of texels.
+  // Strata: one ray each, traced in batches of a row of texels. A ray that escapes takes the
+  // smooth part of the environment averaged over its stratum, from m_u x m_v jittered points
+  // with about one per map pixel the stratum spans along each side (1 to 8).
+  const double stratum = 1.0 / (double(n) * k);
+  const double pixel_angle = environment.pixel_angle();
   std::vector<Ray> rays(std::size_t(n) * k * k);
   std::vector<RayHit> hits(rays.size());
-  std::vector<Vec3> local(rays.size());
   CaptureStats counts;
+  auto stratum_corner = [&](int x, int y, int s) {
+    return Vec2((x + double(s % k) / k) / n, (y + double(s / k) / k) / n);
+  };
   for (int y = 0; y < n; ++y) {
     std::size_t r = 0;
     for (int x = 0; x < n; ++x)
-      for (int j = 0; j < k; ++j)
-        for (int i = 0; i < k; ++i, ++r) {
-          const std::uint64_t id = stream + ((std::uint64_t(y) * n + x) * k + j) * k + i;
-          const double u = (x + (i + unit(2 * id)) / k) / n;
-          const double v = (y + (j + unit(2 * id + 1)) / k) / n;
-          local[r] = square_to_cosine_hemisphere({u, v});
-          rays[r] = {origin, frame.to_world(local[r]).normalized()};
-        }
+      for (int s = 0; s < k * k; ++s, ++r) {
+        const std::uint64_t id = stream + (std::uint64_t(y) * n + x) * k * k + s;
+        const Vec2 corner = stratum_corner(x, y, s);
+        const Vec2 uv = corner + Vec2(unit(2 * id), unit(2 * id + 1)) * stratum;
+        rays[r] = {origin, frame.to_world(square_to_cosine_hemisphere(uv)).normalized()};
+      }
     if (scene) {
       scene->trace(rays, hits);
     } else {
@@ -60,19 +75,36 @@ Grid capture(const Environment& environment, const RayScene* scene, const Vec3& 
     }
     r = 0;
     for (int x = 0; x < n; ++x) {
+      // Sub-samples per stratum side, from the angular size of the texel's middle stratum.
+      int mu = 1, mv = 1;
+      if (pixel_angle > 0) {
+        const Vec2 centre((x + 0.5) / n, (y + 0.5) / n);
+        const Vec3 c = square_to_cosine_hemisphere(centre);
+        const Vec3 du = square_to_cosine_hemisphere(centre + Vec2(stratum, 0));
+        const Vec3 dv = square_to_cosine_hemisphere(centre + Vec2(0, stratum));
+        mu = std::clamp(int(std::ceil(angle_between(c, du) / pixel_angle)), 1, 8);
+        mv = std::clamp(int(std::ceil(angle_between(c, dv) / pixel_angle)), 1, 8);
+      }
       Color sum{0, 0, 0};
       for (int s = 0; s < k * k; ++s, ++r) {
-        Color l;
         if (hits[r].hit) {
-          l = hits[r].emission;
-        } else {
-          ++counts.escaped;
-          // Solid angle of the stratum: d(omega) = pi du dv / cos(theta).
-          const double omega = std::min(2 * std::numbers::pi,
-                                        std::numbers::pi * stratum_area / std::max(local[r].z(), 1e-3));
-          l = environment.smooth_average(rays[r].direction, omega);
+          for (int c = 0; c < 3; ++c) sum[c] += hits[r].emission[c];
+          continue;
         }
-        for (int c = 0; c < 3; ++c) sum[c] += l[c];
+        ++counts.escaped;
+        const Vec2 corner = stratum_corner(x, y, s);
+        const std::uint64_t id = stream + (std::uint64_t(y) * n + x) * k * k + s;
+        Color average{0, 0, 0};
+        for (int b = 0; b < mv; ++b)
+          for (int a = 0; a < mu; ++a) {
+            const std::uint64_t sub = mix(id) + std::uint64_t(b * mu + a);
+            const Vec2 uv = corner + Vec2((a + unit(2 * sub)) / mu, (b + unit(2 * sub + 1)) / mv) *
+                                         stratum;
+            const Color l =
+                environment.smooth_radiance(frame.to_world(square_to_cosine_hemisphere(uv)));
+            for (int c = 0; c < 3; ++c) average[c] += l[c];
+          }
+        for (int c = 0; c < 3; ++c) sum[c] += average[c] / (mu * mv);
       }
       for (int c = 0; c < 3; ++c) grid.at(0, c, x, y) = float(sum[c] / (k * k));
     }
@@ -113,6 +145,89 @@ Grid capture(const Environment& environment, const RayScene* scene, const Vec3& 
     stats->escaped += counts.escaped;
   }
   return grid;
+}
+
+CaptureSet capture_set(const Environment& environment, const RayScene* scene,
+                       std::span<const CapturePoint> points, const CaptureSetOptions& options,
+                       const TaskControl& control, CaptureTimings* timings) {
+  const std::size_t count = points.size();
+  if (count == 0) throw std::invalid_argument("no points to capture");
+  std::vector<Quadtree> trees(count);
+  std::vector<Frame> frames(count);
+  std::atomic<std::size_t> done{0};
+  std::atomic<bool> stop{false};
+  std::atomic<long long> capture_ns{0}, projection_ns{0}, rays{0}, escaped{0};
+  control.report(0, count);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 1), [&](const auto& range) {
+    QuadtreeProjector projector;
+    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      if (stop.load(std::memory_order_relaxed)) return;
+      if (control.cancel && control.cancel->load()) {
+        stop = true;
+        return;
+      }
+      const Vec3 n = points[i].normal.normalized();
+      frames[i] = Frame::from_normal(n);
+      const auto t0 = std::chrono::steady_clock::now();
+      CaptureStats stats;
+      const Grid grid =
+          capture(environment, scene, points[i].position, frames[i], options.capture, i, &stats);
+      const auto t1 = std::chrono::steady_clock::now();
+      projector.project(grid, options.projection, trees[i]);
+      const auto t2 = std::chrono::steady_clock::now();
+      if (options.on_grid) options.on_grid(i, grid);
+      capture_ns += std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - t0).count();
+      projection_ns += std::chrono::duration_cast<std::chrono::nanoseconds>(t2 - t1).count();
+      rays += stats.rays;
+      escaped += stats.escaped;
+      control.report(++done, count);
+    }
+  });
+  if (stop) throw Cancelled();
+  CaptureSet set;
+  set.trees = TreeSet(trees.front().shape);
+  for (std::size_t i = 0; i < count; ++i) {
+    set.trees.append(trees[i].view());
+    const Vec3& p = points[i].position;
+    set.positions.push_back({p.x(), p.y(), p.z()});
+    set.normals.push_back({frames[i].normal.x(), frames[i].normal.y(), frames[i].normal.z()});
+    set.tangents.push_back({frames[i].tangent.x(), frames[i].tangent.y(), frames[i].tangent.z()});
+  }
+  if (timings) {
+    timings->capture_seconds += capture_ns * 1e-9;
+    timings->projection_seconds += projection_ns * 1e-9;
+    timings->stats.rays += rays;
+    timings->stats.escaped += escaped;
+  }
+  return set;
+}
+
+std::vector<CapturePoint> read_points(const std::string& path) {
+  if (std::filesystem::is_directory(path)) throw FileError(path + ": is a directory");
+  std::ifstream in(path);
+  if (!in) throw FileError(path + ": " + std::strerror(errno));
+  std::vector<CapturePoint> points;
+  std::string line;
+  for (int number = 1; std::getline(in, line); ++number) {
+    const std::string content = line.substr(0, line.find('#'));
+    if (content.find_first_not_of(" \t\r") == std::string::npos) continue;
+    std::istringstream fields(content);
+    double v[6];
+    for (int k = 0; k < 6; ++k) {
+      char comma = ',';
+      if (!(fields >> v[k]) || (k < 5 && !(fields >> comma)) || comma != ',' || !std::isfinite(v[k]))
+        throw FileError(path + ":" + std::to_string(number) +
+                        ": expected six finite numbers x,y,z,nx,ny,nz");
+    }
+    if (!(fields >> std::ws).eof())
+      throw FileError(path + ":" + std::to_string(number) + ": more than six values");
+    const Vec3 n(v[3], v[4], v[5]);
+    if (!(n.norm() > 1e-12))
+      throw FileError(path + ":" + std::to_string(number) + ": the normal is zero");
+    points.push_back({Vec3(v[0], v[1], v[2]), n.normalized()});
+  }
+  if (points.empty()) throw FileError(path + ": no points");
+  return points;
 }
 
 }  // namespace basis

@@ -70,16 +70,6 @@ Environment::Environment(const Image& latlong, double rotate_z_degrees)
       bright_.push_back(b);
     }
 
-  // Summed areas of smooth radiance times pixel solid angle.
-  table_.assign(std::size_t(height_ + 1) * (width_ + 1) * 3, 0.0);
-  auto at = [&](int y, int x, int c) -> double& {
-    return table_[(std::size_t(y) * (width_ + 1) + x) * 3 + c];
-  };
-  for (int y = 0; y < height_; ++y)
-    for (int x = 0; x < width_; ++x)
-      for (int c = 0; c < 3; ++c)
-        at(y + 1, x + 1, c) = at(y, x + 1, c) + at(y + 1, x, c) - at(y, x, c) +
-                              smooth_[(std::size_t(y) * width_ + x) * 3 + c] * row_solid_angle_[y];
 }
 
 Environment Environment::constant(const Color& radiance) {
@@ -115,53 +105,18 @@ Color Environment::radiance(const Vec3& w) const {
   return pixel(std::clamp(int(p.y()), 0, height_ - 1), std::clamp(int(p.x()), 0, width_ - 1));
 }
 
-Color Environment::box_integral(double x0, double x1, double y0, double y1) const {
-  // The integral over [0,x) x [0,y) of a piecewise-constant image is bilinear in each pixel,
-  // so interpolating the summed-area table is exact for fractional boxes.
-  auto corner = [&](double x, double y, int c) {
-    const int ix = std::clamp(int(x), 0, width_ - 1), iy = std::clamp(int(y), 0, height_ - 1);
-    const double fx = x - ix, fy = y - iy;
-    auto t = [&](int yy, int xx) { return table_[(std::size_t(yy) * (width_ + 1) + xx) * 3 + c]; };
-    return (1 - fx) * (1 - fy) * t(iy, ix) + fx * (1 - fy) * t(iy, ix + 1) +
-           (1 - fx) * fy * t(iy + 1, ix) + fx * fy * t(iy + 1, ix + 1);
-  };
-  Color sum;
-  for (int c = 0; c < 3; ++c)
-    sum[c] = corner(x1, y1, c) - corner(x0, y1, c) - corner(x1, y0, c) + corner(x0, y0, c);
-  return sum;
-}
-
-Color Environment::smooth_average(const Vec3& w, double solid_angle) const {
+Color Environment::smooth_radiance(const Vec3& w) const {
   if (constant_) return pixel(0, 0);
   const double c = std::cos(rotation_), s = std::sin(rotation_);
   const Vec3 map(c * w.x() + s * w.y(), -s * w.x() + c * w.y(), w.z());
   const Vec2 p = direction_to_latlong(map, width_, height_);
-  // A box of the given solid angle: side sqrt(omega) in theta, sqrt(omega) / sin(theta) in phi.
-  const double side = std::sqrt(std::max(solid_angle, 0.0));
-  const double sin_theta = std::max(std::sin(std::numbers::pi * p.y() / height_), 1e-6);
-  const double half_y = std::max(0.5 * side / std::numbers::pi * height_, 0.5);
-  const double half_x =
-      std::min(0.5 * width_, std::max(0.5 * side / sin_theta / (2 * std::numbers::pi) * width_, 0.5));
-  const double y0 = std::max(0.0, p.y() - half_y), y1 = std::min(double(height_), p.y() + half_y);
-  double x0 = p.x() - half_x, x1 = p.x() + half_x;
-  Color sum{0, 0, 0};
-  double area = 0;
-  auto add = [&](double a, double b) {  // columns [a, b) inside [0, W]
-    const Color part = box_integral(a, b, y0, y1);
-    for (int k = 0; k < 3; ++k) sum[k] += part[k];
-    area += band_solid_angle(y0, y1, b - a);
-  };
-  if (x0 < 0) {
-    add(0, x1);
-    add(x0 + width_, width_);
-  } else if (x1 > width_) {
-    add(x0, width_);
-    add(0, x1 - width_);
-  } else {
-    add(x0, x1);
-  }
-  if (area <= 0) return radiance(w);
-  return {sum[0] / area, sum[1] / area, sum[2] / area};
+  const float* q = &smooth_[(std::size_t(std::clamp(int(p.y()), 0, height_ - 1)) * width_ +
+                            std::clamp(int(p.x()), 0, width_ - 1)) * 3];
+  return {q[0], q[1], q[2]};
+}
+
+double Environment::pixel_angle() const {
+  return constant_ ? 0.0 : std::numbers::pi / height_;
 }
 
 Color Environment::irradiance(const Vec3& n, int subsamples) const {

@@ -3,11 +3,17 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <span>
+#include <string>
+#include <vector>
 
+#include "basis/capture_set.h"
 #include "basis/environment.h"
 #include "basis/frame.h"
 #include "basis/grid.h"
+#include "basis/quadtree.h"
+#include "basis/task.h"
 
 namespace basis {
 
@@ -54,5 +60,36 @@ struct CaptureStats {
 Grid capture(const Environment& environment, const RayScene* scene, const Vec3& position,
              const Frame& frame, const CaptureOptions& options, std::uint64_t index = 0,
              CaptureStats* stats = nullptr);
+
+// A point to capture at: position and unit normal (its frame is Frame::from_normal).
+struct CapturePoint {
+  Vec3 position;
+  Vec3 normal;
+};
+
+// Reads points "x,y,z,nx,ny,nz" per line ('#' starts a comment; normals are normalised).
+// Throws FileError naming the file and line for anything else.
+std::vector<CapturePoint> read_points(const std::string& path);
+
+struct CaptureSetOptions {
+  CaptureOptions capture;
+  ProjectionOptions projection;
+  // Called with each capture's texel grid before projection (from worker threads), e.g. to
+  // write it out; may be empty.
+  std::function<void(std::size_t index, const Grid& grid)> on_grid;
+};
+
+// Time spent, summed over threads: tracing and filtering (capture) and building trees.
+struct CaptureTimings {
+  double capture_seconds = 0;
+  double projection_seconds = 0;
+  CaptureStats stats;
+};
+
+// Captures every point in parallel and projects each capture into a tree. Deterministic for a
+// seed whatever the thread count; reports progress per point and stops (Cancelled) when asked.
+CaptureSet capture_set(const Environment& environment, const RayScene* scene,
+                       std::span<const CapturePoint> points, const CaptureSetOptions& options,
+                       const TaskControl& control = {}, CaptureTimings* timings = nullptr);
 
 }  // namespace basis

@@ -1,6 +1,6 @@
 // Distant lighting from a latitude-longitude radiance map (z up, the convention of latlong.h):
-// point lookups, box-filtered lookups over a solid angle, and the bright pixels (a sun) that
-// captures integrate exactly instead of sampling them.
+// point lookups, and the bright pixels (a sun) that captures integrate exactly instead of
+// sampling them.
 #pragma once
 
 #include <span>
@@ -37,9 +37,11 @@ class Environment {
 
   // Radiance of the pixel seen in world direction w (bright part included).
   Color radiance(const Vec3& w) const;
-  // Mean radiance of the smooth part (bright excess removed) over the lat-long box centred on
-  // w whose solid angle is about `solid_angle` (a summed-area table, exact for the box).
-  Color smooth_average(const Vec3& w, double solid_angle) const;
+  // Radiance of the smooth part (bright excess removed) of the pixel seen in direction w.
+  Color smooth_radiance(const Vec3& w) const;
+  // Angular height of a pixel row (pi / height), 0 for a constant environment: the scale at
+  // which captures sample the map.
+  double pixel_angle() const;
 
   struct BrightPixel {
     int row, column;
@@ -58,13 +60,11 @@ class Environment {
  private:
   Environment() = default;
   Color pixel(int row, int column) const;
-  Color box_integral(double x0, double x1, double y0, double y1) const;
 
   int width_ = 0, height_ = 0;
   double rotation_ = 0;  // radians
   std::vector<float> pixels_;  // RGB rows, bright excess included
   std::vector<float> smooth_;  // RGB rows, bright excess removed
-  std::vector<double> table_;  // (H+1) x (W+1) x 3 summed areas of smooth radiance x solid angle
   std::vector<double> row_solid_angle_;  // per pixel of each row
   std::vector<BrightPixel> bright_;
   EnvironmentRepairs repairs_;

@@ -1,0 +1,249 @@
+// capture2qt: hemisphere captures of an HDR environment seen through a triangle scene (Embree),
+// compressed into quadtrees (a .qt capture set); or one capture image compressed to a tree.
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "basis/capture.h"
+#include "basis/image_io.h"
+#include "basis/mesh.h"
+#include "basis/qt_file.h"
+#include "basis/trace.h"
+#include "basis/version.h"
+#include "cli.h"
+
+namespace {
+
+// The capture image's texels (square, power-of-two side, RGB) as a grid; row y holds texels
+// with v in [y/N, (y+1)/N). Refuses NaN, infinite and negative texels.
+basis::Grid image_to_grid(const basis::Image& image, const std::string& path) {
+  if (image.width != image.height || !basis::is_valid_resolution(image.width))
+    throw basis::FileError(path + ": a capture image is square with a power-of-two side from 2 "
+                                  "to 512, got " + std::to_string(image.width) + " x " +
+                           std::to_string(image.height));
+  basis::Grid grid(image.width, 3);
+  long long bad = 0;
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x)
+      for (int c = 0; c < 3; ++c) {
+        const float v = image.at(x, y, image.channels >= 3 ? c : 0);
+        bad += !(v >= 0 && v < INFINITY);
+        grid.at(0, c, x, y) = v;
+      }
+  if (bad)
+    throw basis::FileError(path + ": " + std::to_string(bad) +
+                           " texel values are NaN, infinite or negative");
+  return grid;
+}
+
+basis::Image grid_to_image(const basis::Grid& grid) {
+  basis::Image image(grid.resolution, grid.resolution, 3);
+  for (int y = 0; y < grid.resolution; ++y)
+    for (int x = 0; x < grid.resolution; ++x)
+      for (int c = 0; c < 3; ++c) image.at(x, y, c) = grid.at(0, c, x, y);
+  return image;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app(
+      "Capture incident radiance L(w) V(x, w) over the hemisphere of surface points, lit by an "
+      "HDR environment at infinity (lat-long, z up) and occluded by an optional triangle scene "
+      "(OBJ; geometry only occludes, except materials with emission Ke, whose radiance it is), "
+      "and compress each capture into a quadtree over the cosine-weighted concentric map.\n\n"
+      "Every texel is an average over its footprint: spp jittered strata per texel; rays that "
+      "escape take the environment averaged over their stratum's solid angle; bright "
+      "environment pixels (a sun) are split into pieces whose energy goes exactly into the "
+      "texel they fall in, behind a shadow ray, so that no sun is lost or multiplied. "
+      "Environment texels that are NaN, infinite or negative are set to 0, with a warning that "
+      "counts them.\n\n"
+      "Or, with --image, compress one capture image (square, power-of-two side, texel (x, y) "
+      "at pixel column x, row y) into a single-tree .qt file.",
+      "capture2qt");
+  std::string env_path, env_constant, scene_path, at, normal_text = "0,0,1", points_path, output,
+                                                          dump, image_path;
+  double env_rotate = 0, tolerance = 0.05;
+  long long sample = 0;
+  std::uint64_t seed = 1;
+  int res = 64, spp = 4, threads = 0;
+  bool absolute = false, quiet = false, json = false;
+  auto* light = app.add_option_group("light", "environment (one of)");
+  light->add_option("--env", env_path, "lat-long environment map (EXR, HDR, any format OpenImageIO reads)");
+  light->add_option("--env-constant", env_constant, "constant environment radiance R,G,B");
+  app.add_option("--env-rotate", env_rotate, "rotate the environment about z by this many degrees");
+  app.add_option("--scene", scene_path, "OBJ scene that occludes (polygons are triangulated)");
+  auto* where = app.add_option_group("points", "where to capture (one of)");
+  where->add_option("--at", at, "one point X,Y,Z (with --normal)");
+  where->add_option("--points", points_path, "CSV file of points: x,y,z,nx,ny,nz per line");
+  where->add_option("--sample", sample,
+                    "N points uniformly over the scene's surfaces, normals facing the side the "
+                    "triangles' counter-clockwise winding faces (up to 10^7)")
+      ->check(CLI::Range(1LL, 10000000LL));
+  where->add_option("--image", image_path, "compress this capture image instead of tracing");
+  app.add_option("--normal", normal_text, "normal at --at (default 0,0,1)");
+  app.add_option("--seed", seed, "seed of the jitter and of --sample (default 1)");
+  app.add_option("--res", res,
+                 "texels per side of each capture, a power of two up to 512 (default 64: 32 "
+                 "misses up to 10 % of sharp reflections under a sun, see README)");
+  app.add_option("--spp", spp,
+                 "rays per texel, a square number: strata per texel (default 4, up to 4096)")
+      ->check(CLI::Range(1, 4096));
+  app.add_option("--tolerance", tolerance,
+                 "refine while a quadrant's error bound exceeds this fraction of the capture's "
+                 "mean (default 0.05)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_flag("--absolute", absolute, "read --tolerance as an absolute radiance");
+  app.add_option("-o,--output", output, "output .qt file (default captures.qt, or the image's "
+                                        "name with .qt)");
+  app.add_option("--dump", dump, "also write every capture's texels as DIR/capture_K.exr");
+  app.add_option("--threads", threads, "worker threads (default: all cores)")
+      ->check(CLI::Range(1, 1024));
+  app.add_flag("--json", json, "print the summary as JSON");
+  app.add_flag("-q,--quiet", quiet, "no progress bar, warnings or summary");
+  app.set_version_flag("--version", basis::kVersion);
+
+  return basis::cli::run(app, argc, argv, [&] {
+    using basis::cli::UsageError;
+    if (!basis::is_valid_resolution(res))
+      throw UsageError("--res must be a power of two from 2 to 512, got " + std::to_string(res));
+    const int strata = int(std::lround(std::sqrt(spp)));
+    if (strata * strata != spp)
+      throw UsageError("--spp must be a square number (1, 4, 9, 16, ...), got " +
+                       std::to_string(spp));
+    basis::ProjectionOptions projection;
+    projection.tolerance = tolerance;
+    if (absolute) projection.mode = basis::ProjectionOptions::Mode::absolute;
+    const auto start = std::chrono::steady_clock::now();
+
+    if (!image_path.empty()) {
+      if (!env_path.empty() || !env_constant.empty() || !scene_path.empty() || !at.empty() ||
+          !points_path.empty() || sample)
+        throw UsageError("--image compresses an existing capture: no light, scene or points");
+      const basis::Grid grid = image_to_grid(basis::read_image(image_path), image_path);
+      const basis::Quadtree tree = basis::project(grid, projection);
+      if (output.empty())
+        output = std::filesystem::path(image_path).replace_extension(".qt").filename().string();
+      const nlohmann::ordered_json parameters = {{"tolerance", tolerance},
+                                                 {"mode", absolute ? "absolute" : "relative"}};
+      basis::write_qt(output, basis::encode_tree(tree.view(), projection,
+                                                 {"capture2qt", basis::kVersion,
+                                                  parameters.dump(), {image_path}}));
+      if (!quiet)
+        std::printf("%s: one capture of %d x %d texels, %d nodes\n", output.c_str(), res, res,
+                    tree.node_count());
+      return;
+    }
+
+    // Light.
+    if (env_path.empty() == env_constant.empty())
+      throw UsageError("give the light: --env FILE or --env-constant R,G,B");
+    const basis::Environment environment = [&] {
+      if (!env_constant.empty()) {
+        const auto c = basis::cli::parse_triple(env_constant, "--env-constant");
+        if (c[0] < 0 || c[1] < 0 || c[2] < 0)
+          throw UsageError("--env-constant must not be negative");
+        return basis::Environment::constant({c[0], c[1], c[2]});
+      }
+      return basis::Environment(basis::read_image(env_path), env_rotate);
+    }();
+    if (!quiet && environment.repairs().total() > 0)
+      std::fprintf(stderr,
+                   "capture2qt: warning: %s: %lld NaN, %lld infinite and %lld negative texel "
+                   "values set to 0\n",
+                   env_path.c_str(), environment.repairs().nan, environment.repairs().infinite,
+                   environment.repairs().negative);
+
+    // Scene.
+    std::unique_ptr<basis::TriangleMesh> mesh;
+    std::unique_ptr<basis::EmbreeScene> scene;
+    if (!scene_path.empty()) {
+      mesh = std::make_unique<basis::TriangleMesh>(basis::read_obj(scene_path));
+      if (!quiet && mesh->dropped_degenerate > 0)
+        std::fprintf(stderr, "capture2qt: warning: %s: %lld degenerate triangles dropped\n",
+                     scene_path.c_str(), mesh->dropped_degenerate);
+      scene = std::make_unique<basis::EmbreeScene>(*mesh);
+    }
+
+    // Points.
+    std::vector<basis::CapturePoint> points;
+    if (int(!at.empty()) + int(!points_path.empty()) + int(sample > 0) != 1)
+      throw UsageError("give the points: --at X,Y,Z, --points FILE or --sample N");
+    if (!at.empty()) {
+      const auto p = basis::cli::parse_triple(at, "--at");
+      const auto n = basis::cli::parse_triple(normal_text, "--normal");
+      const basis::Vec3 normal(n[0], n[1], n[2]);
+      if (!(normal.norm() > 1e-12)) throw UsageError("--normal must not be zero");
+      points.push_back({basis::Vec3(p[0], p[1], p[2]), normal.normalized()});
+    } else if (!points_path.empty()) {
+      points = basis::read_points(points_path);
+    } else {
+      if (!mesh) throw UsageError("--sample places points on a scene: give --scene");
+      points = basis::sample_surface(*mesh, std::size_t(sample), seed);
+    }
+
+    basis::CaptureSetOptions options;
+    options.capture.resolution = res;
+    options.capture.strata = strata;
+    options.capture.seed = seed;
+    options.capture.ray_offset = 1e-4 * std::max(1.0, mesh ? mesh->extent() : 1.0);
+    options.projection = projection;
+    if (!dump.empty()) {
+      if (!std::filesystem::is_directory(dump))
+        throw basis::FileError(dump + ": not a directory (--dump writes into an existing one)");
+      options.on_grid = [&](std::size_t index, const basis::Grid& grid) {
+        char name[32];
+        std::snprintf(name, sizeof name, "capture_%05zu.exr", index);
+        basis::write_image((std::filesystem::path(dump) / name).string(), grid_to_image(grid));
+      };
+    }
+    if (output.empty()) output = "captures.qt";
+    const auto arena = basis::cli::thread_arena(threads);
+    basis::cli::ProgressBar progress("capture2qt", quiet);
+    basis::CaptureTimings timings;
+    const basis::CaptureSet set = arena->execute([&] {
+      return basis::capture_set(environment, scene.get(), points, options, progress.control(),
+                                &timings);
+    });
+    progress.finish();
+
+    std::vector<std::string> sources;
+    if (!env_path.empty()) sources.push_back(env_path);
+    if (!scene_path.empty()) sources.push_back(scene_path);
+    if (!points_path.empty()) sources.push_back(points_path);
+    const nlohmann::ordered_json parameters = {
+        {"res", res}, {"spp", spp}, {"tolerance", tolerance},
+        {"mode", absolute ? "absolute" : "relative"}, {"seed", seed},
+        {"env_rotate", env_rotate}, {"env_constant", env_constant}};
+    const auto bytes = basis::encode_capture_set(
+        set.view(), projection, {"capture2qt", basis::kVersion, parameters.dump(), sources});
+    basis::write_qt(output, bytes);
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (quiet) return;
+    const double projection_share =
+        timings.projection_seconds / std::max(1e-12, timings.capture_seconds);
+    if (json) {
+      std::cout << nlohmann::ordered_json{{"output", output},
+                                          {"captures", set.positions.size()},
+                                          {"nodes", set.trees.view().total_nodes()},
+                                          {"bytes", bytes.size()},
+                                          {"rays", timings.stats.rays},
+                                          {"capture_seconds", timings.capture_seconds},
+                                          {"projection_seconds", timings.projection_seconds},
+                                          {"seconds", seconds}}
+                       .dump()
+                << "\n";
+      return;
+    }
+    std::printf("%s: %zu captures of %d x %d texels (%d rays each), %zu nodes (%.1f per "
+                "capture), %.2f MiB; %.2f M rays, projection %.1f %% of capture time, %.2f s\n",
+                output.c_str(), set.positions.size(), res, res, spp,
+                set.trees.view().total_nodes(),
+                double(set.trees.view().total_nodes()) / double(set.positions.size()),
+                double(bytes.size()) / (1 << 20), double(timings.stats.rays) * 1e-6,
+                100 * projection_share, seconds);
+  });
+}
