@@ -13,6 +13,7 @@ packages=(
   nlohmann-json3-dev libtinyobjloader-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   python3-matplotlib
+  blender-data
 )
 
 missing=()

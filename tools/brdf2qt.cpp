@@ -33,8 +33,9 @@ int main(int argc, char** argv) {
                  "interpolation between entries errs by up to 1.8 % at 16, 0.4 % at 33)")
       ->check(CLI::Range(2, 256));
   app.add_option("--wi-res", wi_res,
-                 "texels per side of each entry, a power of two up to 512 (default 64: 32 "
-                 "misses up to 10 % under a sun, see README)");
+                 "texels per side of each entry, a power of two up to 512 (default 128: "
+                 "glossy reflections of a sun err by up to 8 % at 64, under 2 % at 128, see "
+                 "README)");
   app.add_option("--tolerance", tolerance,
                  "refine while a quadrant's error bound exceeds this fraction of the entry's "
                  "mean (default 0.05)")

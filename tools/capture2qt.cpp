@@ -68,7 +68,7 @@ int main(int argc, char** argv) {
   double env_rotate = 0, tolerance = 0.05;
   long long sample = 0;
   std::uint64_t seed = 1;
-  int res = 64, spp = 4, threads = 0;
+  int res = 128, spp = 4, threads = 0;
   bool absolute = false, quiet = false, json = false;
   auto* light = app.add_option_group("light", "environment (one of)");
   light->add_option("--env", env_path, "lat-long environment map (EXR, HDR, any format OpenImageIO reads)");
@@ -86,8 +86,9 @@ int main(int argc, char** argv) {
   app.add_option("--normal", normal_text, "normal at --at (default 0,0,1)");
   app.add_option("--seed", seed, "seed of the jitter and of --sample (default 1)");
   app.add_option("--res", res,
-                 "texels per side of each capture, a power of two up to 512 (default 64: 32 "
-                 "misses up to 10 % of sharp reflections under a sun, see README)");
+                 "texels per side of each capture, a power of two up to 512 (default 128: "
+                 "glossy reflections of a sun err by up to 8 % at 64, under 2 % at 128, see "
+                 "README)");
   app.add_option("--spp", spp,
                  "rays per texel, a square number: strata per texel (default 4, up to 4096)")
       ->check(CLI::Range(1, 4096));

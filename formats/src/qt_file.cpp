@@ -235,10 +235,8 @@ void QtFile::verify() {
     if (table->tilt()) {
       tilt_ = verify_tree_set(table->tilt(), "tilt trees", nullptr);
       if (tilt_.size() != trees_.size() || tilt_.shape().groups != 2 ||
-          tilt_.shape().resolution != trees_.shape().resolution ||
           tilt_.shape().channels != trees_.shape().channels)
-        fail(name_, "tilt trees do not match the table's entries (count, resolution, channels, "
-                    "two groups)");
+        fail(name_, "tilt trees do not match the table's entries (count, channels, two groups)");
     }
   }
   if (kind_ == QtKind::capture_set) {

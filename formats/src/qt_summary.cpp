@@ -60,6 +60,7 @@ ordered_json summarise(const QtFile& file) {
                        {"model", file.brdf_model()},
                        {"spec", file.brdf_spec()},
                        {"tilt_trees", table.tilt.size()},
+                       {"tilt_resolution", table.has_tilt() ? table.tilt.shape().resolution : 0},
                        {"tilt_nodes", table.has_tilt() ? table.tilt.total_nodes() : 0},
                        {"tilt_bytes", tilt_bytes}};
   }
@@ -158,9 +159,10 @@ std::string summary_text(const QtFile& file) {
     const auto& t = j["brdf_table"];
     if (t["tilt_trees"].get<std::size_t>() > 0) {
       std::snprintf(line, sizeof line,
-                    "tilt         %zu trees of two tilt derivatives, %zu nodes, %s (rotation "
-                    "compensation)\n",
-                    t["tilt_trees"].get<std::size_t>(), t["tilt_nodes"].get<std::size_t>(),
+                    "tilt         %zu trees of two tilt derivatives over %d x %d texels, %zu nodes, "
+                    "%s (rotation compensation)\n",
+                    t["tilt_trees"].get<std::size_t>(), t["tilt_resolution"].get<int>(),
+                    t["tilt_resolution"].get<int>(), t["tilt_nodes"].get<std::size_t>(),
                     bytes_text(t["tilt_bytes"].get<double>()).c_str());
       out << line;
     } else {

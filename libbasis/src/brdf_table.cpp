@@ -22,30 +22,48 @@ Vec3 table_outgoing(int i, int j, int wo_resolution) {
   return parabolic_to_hemisphere(st);
 }
 
+namespace {
+
+// Lobes peak near the mirror direction: at resolution n, the texels around it are sampled
+// densely from the start, so that no lobe narrower than the first samples' spacing slips
+// between them.
+auto near_mirror(const Vec3& wo, int n) {
+  const Vec2 mirror = cosine_hemisphere_to_square(Vec3(-wo.x(), -wo.y(), wo.z()));
+  const int mx = std::min(n - 1, int(mirror.x() * n)), my = std::min(n - 1, int(mirror.y() * n));
+  return [mx, my](int x, int y) { return std::abs(x - mx) <= 1 && std::abs(y - my) <= 1; };
+}
+
+}  // namespace
+
 Grid tabulate_entry(const Brdf& brdf, const Vec3& wo, const BrdfTableOptions& options) {
   const int channels = channel_count(brdf);
-  const int groups = options.tilt_derivatives ? 3 : 1;
-  Grid grid(options.wi_resolution, channels, groups);
-  const double h = options.derivative_step;
-  // Lobes peak near the mirror direction: the texels around it are sampled densely from the
-  // start, so that no lobe narrower than the first samples' spacing slips between them.
-  const Vec2 mirror = cosine_hemisphere_to_square(Vec3(-wo.x(), -wo.y(), wo.z()));
-  const int n = options.wi_resolution;
-  const int mx = std::min(n - 1, int(mirror.x() * n)), my = std::min(n - 1, int(mirror.y() * n));
+  Grid grid(options.wi_resolution, channels, 1);
+  average_over_texels(
+      grid,
+      [&](double u, double v, double* out, bool) {
+        const Color f = evaluate(brdf, square_to_cosine_hemisphere({u, v}), wo);
+        for (int c = 0; c < channels; ++c) out[c] = f[c];
+      },
+      options.supersampling, near_mirror(wo, options.wi_resolution));
+  return grid;
+}
+
+Grid tabulate_tilt(const Brdf& brdf, const Vec3& wo, const BrdfTableOptions& options) {
+  const int channels = channel_count(brdf);
+  const int n = std::min(options.tilt_resolution, options.wi_resolution);
+  Grid grid(n, channels, 2);
+  SupersampleOptions sampling = options.supersampling;
+  sampling.max_depth = std::min(sampling.max_depth, options.tilt_max_depth);
   average_over_texels(
       grid,
       [&](double u, double v, double* out, bool all_groups) {
         const Vec3 w = square_to_cosine_hemisphere({u, v});
-        const Color f = evaluate(brdf, w, wo);
-        for (int c = 0; c < channels; ++c) out[c] = f[c];
-        if (groups == 1 || !all_groups) return;
-        for (int axis = 0; axis < 2; ++axis) {
-          const Color d = tilt_derivative(brdf, w, wo, axis, h);
-          for (int c = 0; c < channels; ++c) out[(1 + axis) * channels + c] = d[c];
+        for (int axis = 0; axis < (all_groups ? 2 : 1); ++axis) {
+          const Color d = tilt_derivative(brdf, w, wo, axis, options.derivative_step);
+          for (int c = 0; c < channels; ++c) out[axis * channels + c] = d[c];
         }
       },
-      options.supersampling,
-      [&](int x, int y) { return std::abs(x - mx) <= 1 && std::abs(y - my) <= 1; });
+      sampling, near_mirror(wo, n));
   return grid;
 }
 
@@ -67,29 +85,25 @@ BrdfTable tabulate_brdf(const Brdf& brdf, const BrdfTableOptions& options,
       return;
     }
     const Vec3 wo = table_outgoing(int(k % m), int(k / m), m);
-    const Grid grid = tabulate_entry(brdf, wo, options);
-    Grid base(grid.resolution, grid.channels, 1);
-    std::copy(grid.texels.begin(), grid.texels.begin() + std::ptrdiff_t(base.texels.size()),
-              base.texels.begin());
+    const Grid base = tabulate_entry(brdf, wo, options);
     entries[k] = project(base, options.projection);
-    if (!options.tilt_derivatives) return;
-    Grid tilt(grid.resolution, grid.channels, 2);
-    std::copy(grid.texels.begin() + std::ptrdiff_t(base.texels.size()), grid.texels.end(),
-              tilt.texels.begin());
-    // Absolute tolerance for both derivative groups: the scaled tolerance of f, taken from the
-    // brightest channel's mean.
-    double scale = 0;
-    for (int c = 0; c < base.channels; ++c)
-      scale = std::max(scale, std::abs(base.mean(0, c)));
-    ProjectionOptions tilt_projection = options.projection;
-    tilt_projection.mode = ProjectionOptions::Mode::absolute;
-    tilt_projection.tolerance =
-        options.tilt_tolerance_scale * (options.projection.mode == ProjectionOptions::Mode::relative
-                                            ? options.projection.tolerance * scale
-                                            : options.projection.tolerance);
-    tilt_projection.cut_on_all_groups = true;
-    tilt_projection.group_tolerance_scale = 1;
-    tilts[k] = project(tilt, tilt_projection);
+    if (options.tilt_derivatives) {
+      // Absolute tolerance for both derivative groups: the scaled tolerance of f, taken from
+      // the brightest channel's mean.
+      double scale = 0;
+      for (int c = 0; c < base.channels; ++c) scale = std::max(scale, std::abs(base.mean(0, c)));
+      ProjectionOptions tilt_projection = options.projection;
+      tilt_projection.mode = ProjectionOptions::Mode::absolute;
+      tilt_projection.tolerance =
+          options.tilt_tolerance_scale *
+          (options.projection.mode == ProjectionOptions::Mode::relative
+               ? options.projection.tolerance * scale
+               : options.projection.tolerance);
+      tilt_projection.max_depth = 0;
+      tilt_projection.cut_on_all_groups = true;
+      tilt_projection.group_tolerance_scale = 1;
+      tilts[k] = project(tabulate_tilt(brdf, wo, options), tilt_projection);
+    }
     control.report(++done, count);
   });
   if (stop) throw Cancelled();
@@ -108,13 +122,13 @@ BrdfTable tabulate_brdf(const Brdf& brdf, const BrdfTableOptions& options,
 
 namespace {
 
-// Parabolic grid cell around wo and bilinear weights of its four entries.
-struct Bilinear {
+// Position of wo in the parabolic grid: cell (i0, j0) and fractions within it.
+struct GridPosition {
   int i0, j0;
   double fx, fy;
 };
 
-Bilinear locate(const Vec3& wo, int m) {
+GridPosition locate(const Vec3& wo, int m) {
   if (!(wo.z() >= 0) || !std::isfinite(wo.norm()))
     throw std::invalid_argument("outgoing direction below the horizon or not finite");
   const Vec2 st = hemisphere_to_parabolic(wo.normalized());
@@ -123,22 +137,22 @@ Bilinear locate(const Vec3& wo, int m) {
     index = std::min(int(g), m - 2);
     frac = g - index;
   };
-  Bilinear b{};
-  axis(st.x(), b.i0, b.fx);
-  axis(st.y(), b.j0, b.fy);
-  return b;
+  GridPosition p{};
+  axis(st.x(), p.i0, p.fx);
+  axis(st.y(), p.j0, p.fy);
+  return p;
 }
 
 template <typename Entry>
 Convolution interpolate(const BrdfTableView& table, const Vec3& wo, Entry entry) {
   // entry(i, j) gives the convolution of entry (i, j).
-  const Bilinear b = locate(wo, table.wo_resolution);
+  const GridPosition p = locate(wo, table.wo_resolution);
   Convolution result;
   for (int dj = 0; dj < 2; ++dj)
     for (int di = 0; di < 2; ++di) {
-      const double weight = (di ? b.fx : 1 - b.fx) * (dj ? b.fy : 1 - b.fy);
+      const double weight = (di ? p.fx : 1 - p.fx) * (dj ? p.fy : 1 - p.fy);
       if (weight == 0) continue;
-      const Convolution c = entry(b.i0 + di, b.j0 + dj);
+      const Convolution c = entry(p.i0 + di, p.j0 + dj);
       for (int ch = 0; ch < 3; ++ch) {
         result.value[ch] += float(weight * std::numbers::pi * c.value[ch]);
         result.bound[ch] += float(weight * std::numbers::pi * c.bound[ch]);
@@ -150,8 +164,7 @@ Convolution interpolate(const BrdfTableView& table, const Vec3& wo, Entry entry)
 }  // namespace
 
 Convolution reflect(const BrdfTableView& table, const QuadtreeView& radiance, const Vec3& wo) {
-  return interpolate(table, wo,
-                     [&](int i, int j) { return convolve(table.entry(i, j), radiance); });
+  return interpolate(table, wo, [&](int i, int j) { return convolve(table.entry(i, j), radiance); });
 }
 
 Convolution reflect_tilted(const BrdfTableView& table, const QuadtreeView& radiance,

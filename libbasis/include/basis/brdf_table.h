@@ -48,25 +48,31 @@ Vec3 table_outgoing(int i, int j, int wo_resolution);
 
 struct BrdfTableOptions {
   int wo_resolution = 33;  // M, entries per side of the parabolic grid (2..256)
-  int wi_resolution = 64;  // N, texels per side of each entry (power of two, 2..512)
+  int wi_resolution = 128;  // N, texels per side of each entry (power of two, 2..512)
   ProjectionOptions projection;
   bool tilt_derivatives = true;  // also tabulate the tilt derivatives (rotation compensation)
   double derivative_step = 1e-3;  // radians, central differences of tilt_derivative
   // The tilt trees are refined where their bound exceeds this multiple of the entry's own
   // tolerance: their contribution is scaled by the tilt (0.1 rad is 5.7 degrees).
   double tilt_tolerance_scale = 10;
+  // Texels per side of the tilt trees (at most wi_resolution): the first-order correction
+  // needs less resolution than f itself.
+  int tilt_resolution = 32;
+  int tilt_max_depth = 2;  // quadrature levels for the derivatives (they are costly to sample)
   SupersampleOptions supersampling{.relative_tolerance = 2e-3,
                                    .absolute_floor = 1e-6,
                                    .floor_fraction_of_mean = 1,
                                    .max_depth = 6,
-                                   .max_group_depth = 2,
+                                   .max_group_depth = 6,
                                    .forced_depth = 3};
 };
 
-// Texel averages over wi of one entry: group 0 f(wi, wo) per channel, and with
-// tilt_derivatives groups 1 and 2 the tilt derivatives (rotation.h) about the tangent and the
-// bitangent (tabulate_brdf puts them into separate trees).
+// Texel averages over wi of one entry: f(wi, wo) per channel, at wi_resolution.
 Grid tabulate_entry(const Brdf& brdf, const Vec3& wo, const BrdfTableOptions& options);
+
+// Texel averages of the entry's tilt derivatives (rotation.h) about the tangent (group 0) and
+// the bitangent (group 1), at tilt_resolution.
+Grid tabulate_tilt(const Brdf& brdf, const Vec3& wo, const BrdfTableOptions& options);
 
 // Tabulates every entry in parallel (deterministic whatever the thread count) and projects it.
 // Reports progress per entry; throws Cancelled when the control asks.

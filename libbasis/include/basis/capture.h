@@ -38,7 +38,7 @@ class RayScene {
 };
 
 struct CaptureOptions {
-  int resolution = 64;        // N, texels per side (power of two, 2..512)
+  int resolution = 128;       // N, texels per side (power of two, 2..512)
   int strata = 2;             // rays per texel = strata^2, jittered within a strata x strata grid
   int bright_subsamples = 4;  // per axis within each bright environment pixel
   std::uint64_t seed = 1;     // jitter; results depend on it and the point index only
