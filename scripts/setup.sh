@@ -6,7 +6,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 packages=(
-  build-essential cmake ninja-build pkg-config
+  build-essential cmake ninja-build pkg-config bc
   libopenexr-dev libopenimageio-dev openimageio-tools
   libeigen3-dev libcli11-dev libembree-dev libtbb-dev
   libflatbuffers-dev flatbuffers-compiler

@@ -214,10 +214,16 @@ int main(int argc, char** argv) {
     if (!env_path.empty()) sources.push_back(env_path);
     if (!scene_path.empty()) sources.push_back(scene_path);
     if (!points_path.empty()) sources.push_back(points_path);
-    const nlohmann::ordered_json parameters = {
-        {"res", res}, {"spp", spp}, {"tolerance", tolerance},
-        {"mode", absolute ? "absolute" : "relative"}, {"seed", seed},
-        {"env_rotate", env_rotate}, {"env_constant", env_constant}};
+    const nlohmann::ordered_json parameters = {{"res", res},
+                                               {"spp", spp},
+                                               {"tolerance", tolerance},
+                                               {"mode", absolute ? "absolute" : "relative"},
+                                               {"seed", seed},
+                                               {"ray_offset", options.capture.ray_offset},
+                                               {"env", env_path},
+                                               {"env_rotate", env_rotate},
+                                               {"env_constant", env_constant},
+                                               {"scene", scene_path}};
     const auto bytes = basis::encode_capture_set(
         set.view(), projection, {"capture2qt", basis::kVersion, parameters.dump(), sources});
     basis::write_qt(output, bytes);

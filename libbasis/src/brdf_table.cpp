@@ -122,13 +122,24 @@ BrdfTable tabulate_brdf(const Brdf& brdf, const BrdfTableOptions& options,
 
 namespace {
 
-// Position of wo in the parabolic grid: cell (i0, j0) and fractions within it.
-struct GridPosition {
-  int i0, j0;
-  double fx, fy;
-};
+template <typename Entry>
+Convolution interpolate(const BrdfTableView& table, const Vec3& wo, Entry entry) {
+  // entry(i, j) gives the convolution of entry (i, j).
+  Convolution result;
+  for (const TableTap& tap : table_taps(table.wo_resolution, wo)) {
+    if (tap.weight == 0) continue;
+    const Convolution c = entry(tap.i, tap.j);
+    for (int ch = 0; ch < 3; ++ch) {
+      result.value[ch] += float(tap.weight * std::numbers::pi * c.value[ch]);
+      result.bound[ch] += float(tap.weight * std::numbers::pi * c.bound[ch]);
+    }
+  }
+  return result;
+}
 
-GridPosition locate(const Vec3& wo, int m) {
+}  // namespace
+
+std::array<TableTap, 4> table_taps(int m, const Vec3& wo) {
   if (!(wo.z() >= 0) || !std::isfinite(wo.norm()))
     throw std::invalid_argument("outgoing direction below the horizon or not finite");
   const Vec2 st = hemisphere_to_parabolic(wo.normalized());
@@ -137,31 +148,13 @@ GridPosition locate(const Vec3& wo, int m) {
     index = std::min(int(g), m - 2);
     frac = g - index;
   };
-  GridPosition p{};
-  axis(st.x(), p.i0, p.fx);
-  axis(st.y(), p.j0, p.fy);
-  return p;
+  int i0, j0;
+  double fx, fy;
+  axis(st.x(), i0, fx);
+  axis(st.y(), j0, fy);
+  return {TableTap{i0, j0, (1 - fx) * (1 - fy)}, TableTap{i0 + 1, j0, fx * (1 - fy)},
+          TableTap{i0, j0 + 1, (1 - fx) * fy}, TableTap{i0 + 1, j0 + 1, fx * fy}};
 }
-
-template <typename Entry>
-Convolution interpolate(const BrdfTableView& table, const Vec3& wo, Entry entry) {
-  // entry(i, j) gives the convolution of entry (i, j).
-  const GridPosition p = locate(wo, table.wo_resolution);
-  Convolution result;
-  for (int dj = 0; dj < 2; ++dj)
-    for (int di = 0; di < 2; ++di) {
-      const double weight = (di ? p.fx : 1 - p.fx) * (dj ? p.fy : 1 - p.fy);
-      if (weight == 0) continue;
-      const Convolution c = entry(p.i0 + di, p.j0 + dj);
-      for (int ch = 0; ch < 3; ++ch) {
-        result.value[ch] += float(weight * std::numbers::pi * c.value[ch]);
-        result.bound[ch] += float(weight * std::numbers::pi * c.bound[ch]);
-      }
-    }
-  return result;
-}
-
-}  // namespace
 
 Convolution reflect(const BrdfTableView& table, const QuadtreeView& radiance, const Vec3& wo) {
   return interpolate(table, wo, [&](int i, int j) { return convolve(table.entry(i, j), radiance); });

@@ -111,34 +111,41 @@ Grid capture(const Environment& environment, const RayScene* scene, const Vec3& 
     counts.rays += std::int64_t(n) * k * k;
   }
 
-  // Bright pixels, split into pieces whose energy lands exactly in their texel.
+  // Bright pixels: one shadow ray each (through the pixel's centre), their energy split into
+  // pieces that land exactly in the texel each falls in.
   const int s = std::max(1, options.bright_subsamples);
   std::vector<Ray> shadow;
-  std::vector<std::pair<std::size_t, Color>> deposits;  // texel, radiance x weight
-  for (const Environment::BrightPixel& b : environment.bright_pixels())
+  struct Deposit {
+    std::size_t ray, texel;
+    Color energy;  // radiance x weight
+  };
+  std::vector<Deposit> deposits;
+  for (const Environment::BrightPixel& b : environment.bright_pixels()) {
+    const Vec3 centre = environment.direction(b.column + 0.5, b.row + 0.5);
+    bool any = false;
     for (int sy = 0; sy < s; ++sy) {
       const double y0 = b.row + double(sy) / s, y1 = b.row + double(sy + 1) / s;
       const double omega = environment.band_solid_angle(y0, y1, 1.0 / s);
       for (int sx = 0; sx < s; ++sx) {
-        const Vec3 d = environment.direction(b.column + (sx + 0.5) / s, (y0 + y1) / 2);
-        const Vec3 l = frame.to_local(d);
+        const Vec3 l = frame.to_local(environment.direction(b.column + (sx + 0.5) / s, (y0 + y1) / 2));
         if (l.z() <= 0) continue;
         const Vec2 uv = cosine_hemisphere_to_square(l);
         const int tx = std::min(n - 1, int(uv.x() * n)), ty = std::min(n - 1, int(uv.y() * n));
         const double weight = omega * l.z() / std::numbers::pi / texel_area;
-        shadow.push_back({origin, d});
-        deposits.push_back({std::size_t(ty) * n + tx,
+        deposits.push_back({shadow.size(), std::size_t(ty) * n + tx,
                             {b.excess[0] * weight, b.excess[1] * weight, b.excess[2] * weight}});
+        any = true;
       }
     }
+    if (any) shadow.push_back({origin, centre});
+  }
   std::vector<RayHit> shadow_hits(shadow.size());
   if (scene && !shadow.empty()) scene->trace(shadow, shadow_hits);
   counts.rays += std::int64_t(shadow.size());
-  for (std::size_t i = 0; i < deposits.size(); ++i) {
-    if (shadow_hits[i].hit) continue;
-    const std::size_t t = deposits[i].first;
+  for (const Deposit& d : deposits) {
+    if (shadow_hits[d.ray].hit) continue;
     for (int c = 0; c < 3; ++c)
-      grid.at(0, c, int(t % n), int(t / n)) += float(deposits[i].second[c]);
+      grid.at(0, c, int(d.texel % n), int(d.texel / n)) += float(d.energy[c]);
   }
   if (stats) {
     stats->rays += counts.rays;

@@ -58,6 +58,33 @@ void build_level(const float* __restrict src, const float* __restrict src_error,
   }
 }
 
+// Level k-1 from level k for a bounded plane with exact bounds: averages, the smallest and
+// largest texel under each cell (from the children's, or the texels themselves at the finest
+// level where lo and hi are null), and the error max(hi - average, average - lo).
+void build_level_exact(const float* __restrict src, const float* __restrict src_lo,
+                       const float* __restrict src_hi, int fine, float* __restrict dst,
+                       float* __restrict dst_lo, float* __restrict dst_hi,
+                       float* __restrict dst_error) {
+  if (!src_lo) src_lo = src_hi = src;
+  const int coarse = fine / 2;
+  for (int y = 0; y < coarse; ++y) {
+    const std::size_t r0 = std::size_t(2 * y) * fine, r1 = r0 + fine, o = std::size_t(y) * coarse;
+    for (int x = 0; x < coarse; ++x) {
+      const float average =
+          ((src[r0 + 2 * x] + src[r0 + 2 * x + 1]) + (src[r1 + 2 * x] + src[r1 + 2 * x + 1])) *
+          0.25f;
+      const float lo = std::min(std::min(src_lo[r0 + 2 * x], src_lo[r0 + 2 * x + 1]),
+                                std::min(src_lo[r1 + 2 * x], src_lo[r1 + 2 * x + 1]));
+      const float hi = std::max(std::max(src_hi[r0 + 2 * x], src_hi[r0 + 2 * x + 1]),
+                                std::max(src_hi[r1 + 2 * x], src_hi[r1 + 2 * x + 1]));
+      dst[o + x] = average;
+      dst_lo[o + x] = lo;
+      dst_hi[o + x] = hi;
+      dst_error[o + x] = std::max(hi - average, average - lo);
+    }
+  }
+}
+
 }  // namespace
 
 std::vector<float> absolute_tolerances(const ProjectionOptions& options,
@@ -110,16 +137,23 @@ void QuadtreeProjector::project(const Grid& grid, const ProjectionOptions& optio
   for (int k = 0; k < levels; ++k)
     total += std::size_t(1) << (2 * k);
   values_.resize(total * planes);
-  errors_.resize(total * bounded);
+  const bool exact = options.bound == ProjectionOptions::Bound::exact;
+  errors_.resize(total * bounded * (exact ? 3 : 1));  // exact bounds also keep lo and hi
   value_planes_.assign(std::size_t(levels + 1) * planes, nullptr);
   error_planes_.assign(std::size_t(levels + 1) * bounded, nullptr);
+  extreme_planes_.assign(exact ? std::size_t(levels + 1) * bounded * 2 : 0, nullptr);
   std::size_t offset = 0;
   for (int k = 0; k < levels; ++k) {
     const std::size_t cells = std::size_t(1) << (2 * k);
     for (int p = 0; p < planes; ++p)
       value_planes_[k * planes + p] = values_.data() + (offset * planes + p * cells);
-    for (int c = 0; c < bounded; ++c)
+    for (int c = 0; c < bounded; ++c) {
       error_planes_[k * bounded + c] = errors_.data() + (offset * bounded + c * cells);
+      if (!exact) continue;
+      float* extremes = errors_.data() + total * bounded + 2 * (offset * bounded + c * cells);
+      extreme_planes_[2 * (k * bounded + c)] = extremes;
+      extreme_planes_[2 * (k * bounded + c) + 1] = extremes + cells;
+    }
     offset += cells;
   }
   for (int p = 0; p < planes; ++p)
@@ -129,14 +163,24 @@ void QuadtreeProjector::project(const Grid& grid, const ProjectionOptions& optio
   // Bottom-up: averages of the four children, and the error bound of section 2.2.
   for (int k = levels; k >= 1; --k)
     for (int p = 0; p < planes; ++p)
-      build_level(value_planes_[k * planes + p],
-                  p < bounded && k < levels ? error_planes_[k * bounded + p] : nullptr, 1 << k,
-                  value_planes_[(k - 1) * planes + p],
-                  p < bounded ? error_planes_[(k - 1) * bounded + p] : nullptr);
+      if (exact && p < bounded) {
+        const bool texels = k == levels;
+        build_level_exact(
+            value_planes_[k * planes + p],
+            texels ? nullptr : extreme_planes_[2 * (k * bounded + p)],
+            texels ? nullptr : extreme_planes_[2 * (k * bounded + p) + 1], 1 << k,
+            value_planes_[(k - 1) * planes + p], extreme_planes_[2 * ((k - 1) * bounded + p)],
+            extreme_planes_[2 * ((k - 1) * bounded + p) + 1], error_planes_[(k - 1) * bounded + p]);
+      } else
+        build_level(value_planes_[k * planes + p],
+                    p < bounded && k < levels ? error_planes_[k * bounded + p] : nullptr, 1 << k,
+                    value_planes_[(k - 1) * planes + p],
+                    p < bounded ? error_planes_[(k - 1) * bounded + p] : nullptr);
 
   // Tolerances: group 0's per channel; further groups' a multiple of their channel's.
   std::vector<double> means(channels);
-  for (int c = 0; c < channels; ++c) means[c] = value_planes_[c][0];
+  for (int c = 0; c < channels; ++c)
+    means[c] = value_planes_[c][0];
   std::vector<float> tol = absolute_tolerances(options, means);
   for (int p = channels; p < bounded; ++p)
     tol.push_back(float(options.group_tolerance_scale * tol[p % channels]));
@@ -180,7 +224,8 @@ void QuadtreeProjector::project(const Grid& grid, const ProjectionOptions& optio
         std::memcpy(error.lane + 2, src + row1, 2 * sizeof(float));
       }
       if (p < channels) errors[p] = error;  // stored bounds: group 0
-      for (int q = 0; q < 4; ++q) refine |= int(error.lane[q] > tol[p]) << q;
+      for (int q = 0; q < 4; ++q)
+        refine |= int(error.lane[q] > tol[p]) << q;
     }
     if (k >= max_depth) refine = 0;
     const std::int32_t no_children[4] = {0, 0, 0, 0};

@@ -2,6 +2,7 @@
 // entry a quadtree over the incoming direction in the cosine-weighted concentric map.
 #pragma once
 
+#include <array>
 #include <string>
 
 #include "basis/brdf.h"
@@ -78,6 +79,15 @@ Grid tabulate_tilt(const Brdf& brdf, const Vec3& wo, const BrdfTableOptions& opt
 // Reports progress per entry; throws Cancelled when the control asks.
 BrdfTable tabulate_brdf(const Brdf& brdf, const BrdfTableOptions& options,
                         const TaskControl& control = {});
+
+// One of the four entries a lookup at wo combines, with its bilinear weight.
+struct TableTap {
+  int i, j;
+  double weight;
+};
+// The four entries around wo (unit, wo.z >= 0) in a parabolic grid of M x M entries.
+// Throws std::invalid_argument for wo below the horizon.
+std::array<TableTap, 4> table_taps(int wo_resolution, const Vec3& wo);
 
 // Reflected radiance Lo(wo) = integral of f(wi, wo) L(wi) cos(theta_i) dwi (pi included) for
 // a unit wo with wo.z >= 0 in the table's frame: the four entries around wo in the parabolic

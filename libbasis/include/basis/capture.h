@@ -40,7 +40,7 @@ class RayScene {
 struct CaptureOptions {
   int resolution = 128;       // N, texels per side (power of two, 2..512)
   int strata = 2;             // rays per texel = strata^2, jittered within a strata x strata grid
-  int bright_subsamples = 4;  // per axis within each bright environment pixel
+  int bright_subsamples = 4;  // pieces per axis of each bright environment pixel
   std::uint64_t seed = 1;     // jitter; results depend on it and the point index only
   double ray_offset = 1e-4;   // origins move this far along the normal (scaled by the scene)
 };
@@ -53,9 +53,9 @@ struct CaptureStats {
 
 // The capture at `position` with local frame `frame`: for every stratum, a ray through its
 // jittered point; an escaping ray contributes the environment's smooth part averaged over the
-// stratum's solid angle, a hit its surface's emission. Each bright environment pixel is split
-// into bright_subsamples^2 pieces whose energy goes exactly into the texel it falls in, if a
-// shadow ray towards it escapes. With no scene nothing occludes. `index` decorrelates jitter
+// stratum's footprint, a hit its surface's emission. Each bright environment pixel is split
+// into bright_subsamples^2 pieces whose energy goes exactly into the texel each falls in, if a
+// shadow ray towards the pixel's centre escapes. With no scene nothing occludes. `index` decorrelates jitter
 // between points. Deterministic.
 Grid capture(const Environment& environment, const RayScene* scene, const Vec3& position,
              const Frame& frame, const CaptureOptions& options, std::uint64_t index = 0,

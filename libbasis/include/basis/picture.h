@@ -2,6 +2,9 @@
 // square (u to the right, v downwards) with the cells of the tree outlined.
 #pragma once
 
+#include <array>
+#include <span>
+
 #include "basis/image.h"
 #include "basis/quadtree.h"
 
@@ -16,5 +19,11 @@ struct PictureOptions {
 // An RGB display image (values in [0,1]) of one tree: tone-mapped by the function's mean, a
 // grey tree shown grey, signed groups (derivatives) shown blue for negative, red for positive.
 Image draw_tree(const QuadtreeView& tree, const PictureOptions& options = {});
+
+// A view from above (orthographic, looking down the z axis, x to the right, y up) of points
+// drawn as discs coloured by their values, tone-mapped by the values' mean, on a dark ground.
+// The view fits the points' bounding box. Higher points are drawn over lower ones.
+Image draw_points_from_above(std::span<const std::array<double, 3>> positions,
+                             std::span<const std::array<float, 3>> values, int size);
 
 }  // namespace basis

@@ -89,11 +89,18 @@ struct ProjectionOptions {
   // derivatives, whose contribution is scaled by a small tilt).
   bool cut_on_all_groups = false;
   double group_tolerance_scale = 10;
+  // How the bound on |texel - average| is computed:
+  //   exact: from the smallest and largest texel under each cell, max(hi - avg, avg - lo);
+  //   paper: the paper's recursive bound max(child) - min(child) + max(child error), which
+  //          grows by a child's range at every level (looser, so trees are larger).
+  // Both bound every texel; the cut and the certified convolution bound use the chosen one.
+  enum class Bound { exact, paper };
+  Bound bound = Bound::exact;
 };
 
-// Builds and cuts quadtrees (section 2.2): bottom-up averages and error bounds
-//   error = max(child average) - min(child average) + max(child error),
-// then a depth-first cut at the tolerance. Reuse one projector to avoid reallocating scratch.
+// Builds and cuts quadtrees (section 2.2): bottom-up averages and error bounds (exact, or the
+// paper's error = max(child average) - min(child average) + max(child error)), then a
+// depth-first cut at the tolerance. Reuse one projector to avoid reallocating scratch.
 class QuadtreeProjector {
  public:
   // Projects a grid of resolution 2..512 (power of two) with 1 or 3 channels and finite texels.
@@ -112,6 +119,7 @@ class QuadtreeProjector {
   std::vector<float> errors_;  // the same levels, group 0 only
   std::vector<float*> value_planes_;
   std::vector<float*> error_planes_;
+  std::vector<float*> extreme_planes_;  // exact bounds: smallest and largest texel per cell
   std::vector<PendingCell> pending_;
 };
 

@@ -1,0 +1,51 @@
+#include "basis/qt_recipe.h"
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+namespace basis {
+
+BrdfSpec table_brdf(const QtFile& table) {
+  const std::string spec = table.brdf_spec();
+  if (spec.empty()) throw FileError(table.name() + ": the table does not store its BRDF spec");
+  const Provenance p = table.provenance();
+  const std::string folder =
+      p.sources.empty() ? std::string() : std::filesystem::path(p.sources[0]).parent_path().string();
+  return parse_brdf_spec(spec, table.name() + " (stored spec)", folder);
+}
+
+CaptureRecipe capture_recipe(const QtFile& captures) {
+  const Provenance p = captures.provenance();
+  if (p.tool != "capture2qt")
+    throw FileError(captures.name() + ": not made by capture2qt, its inputs are unknown");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(p.parameters);
+  } catch (const nlohmann::json::exception&) {
+    throw FileError(captures.name() + ": unreadable capture parameters in its provenance");
+  }
+  CaptureRecipe r;
+  try {
+    r.options.resolution = j.at("res").get<int>();
+    const int spp = j.at("spp").get<int>();
+    r.options.strata = 1;
+    while (r.options.strata * r.options.strata < spp) ++r.options.strata;
+    r.options.seed = j.at("seed").get<std::uint64_t>();
+    r.options.ray_offset = j.at("ray_offset").get<double>();
+    r.rotate_z_degrees = j.at("env_rotate").get<double>();
+    const std::string constant = j.at("env_constant").get<std::string>();
+    if (!constant.empty()) {
+      char comma;
+      std::istringstream in(constant);
+      in >> r.constant[0] >> comma >> r.constant[1] >> comma >> r.constant[2];
+    }
+    r.environment = j.value("env", std::string());
+    r.scene = j.value("scene", std::string());
+  } catch (const nlohmann::json::exception&) {
+    throw FileError(captures.name() + ": incomplete capture parameters in its provenance");
+  }
+  return r;
+}
+
+}  // namespace basis
