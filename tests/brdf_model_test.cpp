@@ -120,7 +120,7 @@ TEST(BrdfSpec, ErrorsNameFileLineAndField) {
             ":1: field 'ks': must be a number or an array [r, g, b] of three numbers");
   EXPECT_EQ(spec_error(dir, "{\"model\": \"glass\"}"),
             ":1: field 'model': unknown model 'glass' (lambert, phong, blinn-phong, ward, ggx, "
-            "merl)");
+            "merl, rgl)");
   EXPECT_EQ(spec_error(dir, "{\"model\": \"lambert\",\n \"albedo\": 0.5,\n \"albeedo\": 1}"),
             ":3: field 'albeedo': unknown field (expected one of: albedo, model, name, table)");
   EXPECT_EQ(spec_error(dir, "{\"model\": \"ggx\", \"f0\": 0.04, \"alpha\": \"rough\"}"),

@@ -66,12 +66,29 @@ TEST_P(QuadtreeProperties, ReconstructionWithinToleranceAndIntegralExact) {
 
 TEST_P(QuadtreeProperties, StoredErrorBoundsEveryTexel) {
   const auto [n, channels] = GetParam();
-  for (const auto& [name, grid] : test_functions(n, channels, 5)) {
-    const Quadtree tree = project(grid, {.tolerance = 0.05});
-    for_each_quadrant_deviation(tree.view(), grid, [&](float deviation, float error, float v) {
-      ASSERT_LE(deviation, error + 1e-6f * (v + deviation) + 1e-7f) << name;
-    });
-  }
+  for (const auto bound : {ProjectionOptions::Bound::exact, ProjectionOptions::Bound::paper})
+    for (const auto& [name, grid] : test_functions(n, channels, 5)) {
+      const Quadtree tree = project(grid, {.tolerance = 0.05, .bound = bound});
+      for_each_quadrant_deviation(tree.view(), grid, [&](float deviation, float error, float v) {
+        ASSERT_LE(deviation, error + 1e-6f * (v + deviation) + 1e-7f) << name;
+        // The exact bound is the largest deviation itself.
+        if (bound == ProjectionOptions::Bound::exact) {
+          ASSERT_LE(error, deviation + 1e-6f * (v + deviation) + 1e-7f) << name;
+        }
+      });
+    }
+}
+
+TEST_P(QuadtreeProperties, ExactBoundsNeverNeedMoreNodesThanThePapers) {
+  const auto [n, channels] = GetParam();
+  for (const auto& [name, grid] : test_functions(n, channels, 6))
+    for (double tolerance : {0.01, 0.05, 0.2}) {
+      const int exact = project(grid, {.tolerance = tolerance}).node_count();
+      const int paper =
+          project(grid, {.tolerance = tolerance, .bound = ProjectionOptions::Bound::paper})
+              .node_count();
+      EXPECT_LE(exact, paper) << name << " " << tolerance;
+    }
 }
 
 INSTANTIATE_TEST_SUITE_P(Resolutions, QuadtreeProperties,

@@ -18,7 +18,8 @@ int main(int argc, char** argv) {
       "holding texel averages of f(wi, wo) (supersampled until stable), plus two channel groups "
       "of tilt derivatives for rotation compensation.\n\n"
       "SPEC.json: {\"model\": NAME, ...} with models lambert (albedo), phong and blinn-phong "
-      "(kd, ks, exponent), ward (kd, ks, alpha), ggx (kd, f0, alpha), merl (file). Colours are "
+      "(kd, ks, exponent), ward (kd, ks, alpha), ggx (kd, f0, alpha), merl (file: a MERL "
+      "binary), rgl (file: an RGL EPFL .bsdf tensor file). Colours are "
       "[r, g, b] or one number. An optional \"table\": {\"wo_res\", \"wi_res\", \"tolerance\"} "
       "block sets defaults that flags override.",
       "brdf2qt");
@@ -27,7 +28,9 @@ int main(int argc, char** argv) {
   double tolerance = -1;
   bool absolute = false, quiet = false, no_tilt = false, json = false;
   app.add_option("spec", spec_path, "the BRDF spec (JSON)")->required();
-  app.add_option("-o,--output", output, "output .qt file (default: the spec's name with .qt)");
+  app.add_option("-o,--output", output,
+                 "output .qt file (default: the spec's name with .qt); a .qt file holds at most "
+                 "2 GiB, tabulation stops with an error beyond");
   app.add_option("--wo-res", wo_res,
                  "entries per side of the parabolic grid over wo (default 33: bilinear "
                  "interpolation between entries errs by up to 1.8 % at 16, 0.4 % at 33)")

@@ -71,13 +71,18 @@ int main(int argc, char** argv) {
   int res = 128, spp = 4, threads = 0;
   bool absolute = false, quiet = false, json = false;
   auto* light = app.add_option_group("light", "environment (one of)");
-  light->add_option("--env", env_path, "lat-long environment map (EXR, HDR, any format OpenImageIO reads)");
+  light->add_option("--env", env_path,
+                    "lat-long environment map (EXR, HDR, any format OpenImageIO reads; at most "
+                    "2^28 pixels)");
   light->add_option("--env-constant", env_constant, "constant environment radiance R,G,B");
   app.add_option("--env-rotate", env_rotate, "rotate the environment about z by this many degrees");
-  app.add_option("--scene", scene_path, "OBJ scene that occludes (polygons are triangulated)");
+  app.add_option("--scene", scene_path,
+                 "OBJ scene that occludes (polygons are triangulated; up to 4 GiB and 2^28 "
+                 "triangles)");
   auto* where = app.add_option_group("points", "where to capture (one of)");
   where->add_option("--at", at, "one point X,Y,Z (with --normal)");
-  where->add_option("--points", points_path, "CSV file of points: x,y,z,nx,ny,nz per line");
+  where->add_option("--points", points_path,
+                    "CSV file of points: x,y,z,nx,ny,nz per line (up to 10^7 points)");
   where->add_option("--sample", sample,
                     "N points uniformly over the scene's surfaces, normals facing the side the "
                     "triangles' counter-clockwise winding faces (up to 10^7)")
@@ -97,8 +102,9 @@ int main(int argc, char** argv) {
                  "mean (default 0.05)")
       ->check(CLI::NonNegativeNumber);
   app.add_flag("--absolute", absolute, "read --tolerance as an absolute radiance");
-  app.add_option("-o,--output", output, "output .qt file (default captures.qt, or the image's "
-                                        "name with .qt)");
+  app.add_option("-o,--output", output,
+                 "output .qt file (default captures.qt, or the image's name with .qt); a .qt "
+                 "file holds at most 2 GiB, capturing stops with an error beyond");
   app.add_option("--dump", dump, "also write every capture's texels as DIR/capture_K.exr");
   app.add_option("--threads", threads, "worker threads (default: all cores)")
       ->check(CLI::Range(1, 1024));

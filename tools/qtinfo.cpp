@@ -18,7 +18,7 @@ int main(int argc, char** argv) {
   std::string input, png, entry;
   int index = -1, group = 0, size = 512;
   bool json = false;
-  app.add_option("file", input, "the .qt file")->required();
+  app.add_option("file", input, "the .qt file (at most 2 GiB)")->required();
   app.add_flag("--json", json, "print the summary as JSON for scripts");
   app.add_option("--png", png, "draw a tree into this PNG file");
   app.add_option("--entry", entry,

@@ -9,6 +9,7 @@
 
 #include "basis/atomic_file.h"
 #include "basis/merl.h"
+#include "basis/rgl.h"
 
 namespace basis {
 
@@ -110,7 +111,7 @@ BrdfSpec parse_brdf_spec(const std::string& text, const std::string& name,
   }
   if (!root.is_object()) r.fail("", "a BRDF spec is a JSON object {\"model\": ..., ...}");
   if (!root.contains("model") || !root["model"].is_string())
-    r.fail("model", "missing or not a string (lambert, phong, blinn-phong, ward, ggx, merl)");
+    r.fail("model", "missing or not a string (lambert, phong, blinn-phong, ward, ggx, merl, rgl)");
 
   BrdfSpec spec;
   spec.text = text;
@@ -137,15 +138,20 @@ BrdfSpec parse_brdf_spec(const std::string& text, const std::string& name,
     r.only(root, {"model", "name", "kd", "f0", "alpha", "table"}, "");
     spec.brdf = Ggx{r.color(root, "kd", "kd", 1, Color{0, 0, 0}), r.color(root, "f0", "f0", 1),
                     r.number(root, "alpha", "alpha", 1e-3, 1)};
-  } else if (m == "merl") {
+  } else if (m == "merl" || m == "rgl") {
     r.only(root, {"model", "name", "file", "table"}, "");
     if (!root.contains("file") || !root["file"].is_string())
-      r.fail("file", "missing or not a string (path of a MERL .binary file)");
+      r.fail("file", m == "merl" ? "missing or not a string (path of a MERL .binary file)"
+                                 : "missing or not a string (path of an RGL .bsdf file)");
     std::filesystem::path file = root["file"].get<std::string>();
     if (file.is_relative() && !folder.empty()) file = std::filesystem::path(folder) / file;
-    spec.brdf = std::shared_ptr<const MeasuredBrdf>(MerlBrdf::read(file.string()));
+    if (m == "merl")
+      spec.brdf = std::shared_ptr<const MeasuredBrdf>(MerlBrdf::read(file.string()));
+    else
+      spec.brdf = std::shared_ptr<const MeasuredBrdf>(RglBrdf::read(file.string()));
   } else {
-    r.fail("model", "unknown model '" + m + "' (lambert, phong, blinn-phong, ward, ggx, merl)");
+    r.fail("model",
+           "unknown model '" + m + "' (lambert, phong, blinn-phong, ward, ggx, merl, rgl)");
   }
   if (root.contains("name") && !root["name"].is_string()) r.fail("name", "must be a string");
 

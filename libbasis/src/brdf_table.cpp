@@ -75,11 +75,11 @@ BrdfTable tabulate_brdf(const Brdf& brdf, const BrdfTableOptions& options,
     throw std::invalid_argument("wi resolution must be a power of two from 2 to 512");
   const std::size_t count = std::size_t(m) * m;
   std::vector<Quadtree> entries(count), tilts(options.tilt_derivatives ? count : 0);
-  std::atomic<std::size_t> done{0};
-  std::atomic<bool> stop{false};
+  std::atomic<std::size_t> done{0}, bytes{0};
+  std::atomic<bool> stop{false}, too_large{false};
   control.report(0, count);
   tbb::parallel_for(std::size_t(0), count, [&](std::size_t k) {
-    if (stop.load(std::memory_order_relaxed)) return;
+    if (stop.load(std::memory_order_relaxed) || too_large.load(std::memory_order_relaxed)) return;
     if (control.cancel && control.cancel->load()) {
       stop = true;
       return;
@@ -104,9 +104,17 @@ BrdfTable tabulate_brdf(const Brdf& brdf, const BrdfTableOptions& options,
       tilt_projection.group_tolerance_scale = 1;
       tilts[k] = project(tabulate_tilt(brdf, wo, options), tilt_projection);
     }
+    bytes += (entries[k].nodes.size() + entries[k].errors.size() +
+              (tilts.empty() ? 0 : tilts[k].nodes.size() + tilts[k].errors.size())) *
+             sizeof(Quad);
+    if (bytes > options.max_bytes) too_large = true;
     control.report(++done, count);
   });
   if (stop) throw Cancelled();
+  if (too_large)
+    throw std::length_error("the table grows beyond " + std::to_string(options.max_bytes >> 20) +
+                            " MiB (the limit of one .qt file): lower the resolutions or raise "
+                            "the tolerance");
 
   BrdfTable table;
   table.wo_resolution = m;

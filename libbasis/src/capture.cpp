@@ -161,14 +161,15 @@ CaptureSet capture_set(const Environment& environment, const RayScene* scene,
   if (count == 0) throw std::invalid_argument("no points to capture");
   std::vector<Quadtree> trees(count);
   std::vector<Frame> frames(count);
-  std::atomic<std::size_t> done{0};
-  std::atomic<bool> stop{false};
+  std::atomic<std::size_t> done{0}, bytes{0};
+  std::atomic<bool> stop{false}, too_large{false};
   std::atomic<long long> capture_ns{0}, projection_ns{0}, rays{0}, escaped{0};
   control.report(0, count);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 1), [&](const auto& range) {
     QuadtreeProjector projector;
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      if (stop.load(std::memory_order_relaxed)) return;
+      if (stop.load(std::memory_order_relaxed) || too_large.load(std::memory_order_relaxed))
+        return;
       if (control.cancel && control.cancel->load()) {
         stop = true;
         return;
@@ -187,10 +188,16 @@ CaptureSet capture_set(const Environment& environment, const RayScene* scene,
       projection_ns += std::chrono::duration_cast<std::chrono::nanoseconds>(t2 - t1).count();
       rays += stats.rays;
       escaped += stats.escaped;
+      bytes += (trees[i].nodes.size() + trees[i].errors.size()) * sizeof(Quad);
+      if (bytes > options.max_bytes) too_large = true;
       control.report(++done, count);
     }
   });
   if (stop) throw Cancelled();
+  if (too_large)
+    throw std::length_error("the captures grow beyond " + std::to_string(options.max_bytes >> 20) +
+                            " MiB (the limit of one .qt file): capture fewer points per file, "
+                            "lower --res or raise the tolerance");
   CaptureSet set;
   set.trees = TreeSet(trees.front().shape);
   for (std::size_t i = 0; i < count; ++i) {
@@ -231,6 +238,9 @@ std::vector<CapturePoint> read_points(const std::string& path) {
     const Vec3 n(v[3], v[4], v[5]);
     if (!(n.norm() > 1e-12))
       throw FileError(path + ":" + std::to_string(number) + ": the normal is zero");
+    if (points.size() >= kMaxCapturePoints)
+      throw FileError(path + ":" + std::to_string(number) + ": more than " +
+                      std::to_string(kMaxCapturePoints) + " points");
     points.push_back({Vec3(v[0], v[1], v[2]), n.normalized()});
   }
   if (points.empty()) throw FileError(path + ": no points");

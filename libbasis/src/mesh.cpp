@@ -91,6 +91,9 @@ Vec3 TriangleMesh::normal(std::size_t t) const {
 TriangleMesh read_obj(const std::string& path) {
   if (std::filesystem::is_directory(path)) throw FileError(path + ": is a directory, not an OBJ file");
   if (!std::filesystem::exists(path)) throw FileError(path + ": No such file or directory");
+  if (std::filesystem::file_size(path) > kMaxObjBytes)
+    throw FileError(path + ": larger than " + std::to_string(kMaxObjBytes >> 30) +
+                    " GiB, the limit of an OBJ scene");
   check_vertex_numbers(path);
   tinyobj::ObjReaderConfig config;
   config.triangulate = true;

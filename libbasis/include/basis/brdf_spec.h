@@ -24,7 +24,8 @@ struct BrdfSpec {
 // Reads and validates a spec file. Models and fields (colours are [r, g, b] or one number):
 //   lambert: albedo            phong, blinn-phong: kd, ks, exponent
 //   ward: kd, ks, alpha        ggx: kd, f0, alpha
-//   merl: file (a MERL binary, relative to the spec's folder)
+//   merl: file (a MERL binary), rgl: file (an RGL .bsdf tensor file); relative to the spec's
+//   folder
 // Every error is a FileError "PATH:LINE: problem" naming the field.
 BrdfSpec read_brdf_spec(const std::string& path);
 

@@ -60,6 +60,9 @@ struct BrdfTableOptions {
   // needs less resolution than f itself.
   int tilt_resolution = 32;
   int tilt_max_depth = 2;  // quadrature levels for the derivatives (they are costly to sample)
+  // Tabulation stops with std::length_error once the trees pass this size (a .qt file holds
+  // at most 2 GiB), before memory runs out.
+  std::size_t max_bytes = std::size_t(2000) << 20;
   SupersampleOptions supersampling{.relative_tolerance = 2e-3,
                                    .absolute_floor = 1e-6,
                                    .floor_fraction_of_mean = 1,

@@ -67,8 +67,11 @@ struct CapturePoint {
   Vec3 normal;
 };
 
-// Reads points "x,y,z,nx,ny,nz" per line ('#' starts a comment; normals are normalised).
-// Throws FileError naming the file and line for anything else.
+// Most points a capture set takes (files and samples).
+inline constexpr std::size_t kMaxCapturePoints = 10'000'000;
+
+// Reads points "x,y,z,nx,ny,nz" per line ('#' starts a comment; normals are normalised), at
+// most kMaxCapturePoints. Throws FileError naming the file and line for anything else.
 std::vector<CapturePoint> read_points(const std::string& path);
 
 struct CaptureSetOptions {
@@ -77,6 +80,9 @@ struct CaptureSetOptions {
   // Called with each capture's texel grid before projection (from worker threads), e.g. to
   // write it out; may be empty.
   std::function<void(std::size_t index, const Grid& grid)> on_grid;
+  // Capturing stops with std::length_error once the trees pass this size (a .qt file holds at
+  // most 2 GiB), before memory runs out.
+  std::size_t max_bytes = std::size_t(2000) << 20;
 };
 
 // Time spent, summed over threads: tracing and filtering (capture) and building trees.

@@ -30,8 +30,9 @@ struct TriangleMesh {
   Vec3 normal(std::size_t t) const;
 };
 
-// Largest mesh accepted (checked while reading).
+// Largest mesh accepted (checked while reading) and largest OBJ file (checked before).
 inline constexpr std::size_t kMaxTriangles = std::size_t(1) << 28;
+inline constexpr std::uintmax_t kMaxObjBytes = std::uintmax_t(4) << 30;
 
 // Reads an OBJ file (and its MTL materials) with tinyobjloader; polygons are triangulated.
 // Throws FileError for unreadable files, NaN or infinite vertices, indices out of range, or a

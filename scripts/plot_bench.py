@@ -1,0 +1,125 @@
+"""Draws qtbench's charts from the numbers it wrote. Usage: plot_bench.py DIR
+DIR/results.csv -> DIR/chart.png (convolution time against error) and DIR/storage.png (bytes of
+the light's representation against error), one panel per BRDF, one row of panels per light;
+DIR/rotation.csv -> DIR/rotation.png (error against the tilt of the surface)."""
+import csv
+import math
+import os
+import sys
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+STYLE = {"quadtree": "tab:green", "dense_naive": "tab:gray", "dense_simd": "black",
+         "sh": "tab:blue", "haar": "tab:purple"}
+
+
+def series(rows):
+    """Curves per method: quadtree one per resolution (tolerance varies), others by param."""
+    curves = {}
+    for r in rows:
+        if r["method"] == "quadtree":
+            n, tol = r["param"].split("@")
+            curves.setdefault(f"quadtree {n}²", []).append((float(tol), r))
+        else:
+            curves.setdefault(r["method"], []).append((float(r["param"]), r))
+    return {k: [r for _, r in sorted(v, key=lambda p: p[0])] for k, v in curves.items()}
+
+
+def panel_grid(rows, x_key, x_label, path):
+    brdfs = list(dict.fromkeys(r["brdf"] for r in rows))
+    lights = list(dict.fromkeys(r["light"] for r in rows))
+    figure, axes = plt.subplots(len(lights), len(brdfs), figsize=(3.6 * len(brdfs), 3.3 * len(lights)),
+                                squeeze=False, sharex=True, sharey=True)
+    for i, light in enumerate(lights):
+        for j, brdf in enumerate(brdfs):
+            axis = axes[i][j]
+            for name, curve in series([r for r in rows if r["brdf"] == brdf and r["light"] == light]).items():
+                method = name.split()[0]
+                xs = [float(r[x_key]) for r in curve]
+                ys = [max(float(r["rel_error"]), 1e-6) * 100 for r in curve]
+                alpha = 1.0 if method != "quadtree" else 0.5 + 0.5 * (name.endswith("128²") or name.endswith("256²"))
+                axis.plot(xs, ys, marker="o", markersize=3, color=STYLE.get(method, "tab:red"),
+                          alpha=alpha, label=name, linestyle="--" if method == "dense_naive" else "-")
+            axis.set_xscale("log")
+            axis.set_yscale("log")
+            axis.grid(True, which="both", alpha=0.25)
+            axis.set_title(f"{brdf}, {light}", fontsize=9)
+            if i == len(lights) - 1:
+                axis.set_xlabel(x_label, fontsize=8)
+            if j == 0:
+                axis.set_ylabel("relative error (%)", fontsize=8)
+    handles, labels = axes[0][0].get_legend_handles_labels()
+    figure.legend(handles, labels, loc="lower center", ncol=min(8, len(labels)), fontsize=8)
+    figure.tight_layout(rect=(0, 0.07, 1, 1))
+    figure.savefig(path, dpi=90)
+
+
+def rotation(path_csv, path_png):
+    rows = list(csv.DictReader(open(path_csv)))
+    brdfs = list(dict.fromkeys(r["brdf"] for r in rows))
+    colours = {"none": "tab:red", "reparametrised": "tab:orange", "compensated": "tab:green"}
+    figure, axes = plt.subplots(1, len(brdfs), figsize=(5.5 * len(brdfs), 4), squeeze=False)
+    for axis, brdf in zip(axes[0], brdfs):
+        methods = list(dict.fromkeys(r["method"] for r in rows if r["brdf"] == brdf))
+        for method in methods:
+            points = sorted((float(r["tilt_degrees"]), float(r["rel_error"])) for r in rows
+                            if r["brdf"] == brdf and r["method"] == method)
+            colour = colours.get(method, "tab:blue")
+            style = ":" if method.startswith("sh") and "8" in method else "-"
+            axis.plot([p[0] for p in points], [max(p[1], 1e-6) * 100 for p in points], marker="o",
+                      markersize=3, color=colour, linestyle=style,
+                      label=method.replace("_", " ").replace("sh", "SH order ") if method.startswith("sh") else method)
+        axis.set_title(f"Lambert 0.5 + {brdf} (ks 0.4), map {rows[0]['map']}", fontsize=10)
+        axis.set_xlabel("tilt of the surface against the capture (degrees)")
+        axis.set_yscale("log")
+        axis.grid(True, which="both", alpha=0.3)
+    axes[0][0].set_ylabel("mean relative error (%)")
+    axes[0][0].legend(fontsize=8)
+    figure.tight_layout()
+    figure.savefig(path_png, dpi=100)
+
+
+def main(folder):
+    rows = list(csv.DictReader(open(os.path.join(folder, "results.csv"))))
+    panel_grid(rows, "convolve_ns", "time per convolution (ns)", os.path.join(folder, "chart.png"))
+    panel_grid(rows, "bytes", "bytes of the light's representation", os.path.join(folder, "storage.png"))
+    rotation_csv = os.path.join(folder, "rotation.csv")
+    if os.path.exists(rotation_csv):
+        rotation(rotation_csv, os.path.join(folder, "rotation.png"))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])
+
+
+def summary(folder):
+    """DIR/summary.md: per panel, each method's best error, and the fastest convolution (and
+    its storage) reaching 1 %, 2 % and 5 % error."""
+    rows = list(csv.DictReader(open(os.path.join(folder, "results.csv"))))
+    methods = list(dict.fromkeys(r["method"] for r in rows))
+    lines = ["| BRDF | light | method | best error | ns at ≤1 % | ns at ≤2 % | ns at ≤5 % | bytes at ≤2 % |",
+             "|---|---|---|---|---|---|---|---|"]
+    for brdf in dict.fromkeys(r["brdf"] for r in rows):
+        for light in dict.fromkeys(r["light"] for r in rows):
+            for method in methods:
+                mine = [r for r in rows if r["brdf"] == brdf and r["light"] == light and r["method"] == method]
+                if not mine:
+                    continue
+                best = min(float(r["rel_error"]) for r in mine)
+
+                def fastest(limit, key="convolve_ns"):
+                    ok = [r for r in mine if float(r["rel_error"]) <= limit]
+                    if not ok:
+                        return "—"
+                    r = min(ok, key=lambda r: float(r["convolve_ns"]))
+                    return f"{float(r[key]):.0f} ({r['param']})" if key == "convolve_ns" else f"{float(r[key]):.0f}"
+                lines.append(f"| {brdf} | {light} | {method} | {100 * best:.2f} % | {fastest(0.01)} | "
+                             f"{fastest(0.02)} | {fastest(0.05)} | {fastest(0.02, 'bytes')} |")
+    open(os.path.join(folder, "summary.md"), "w").write("\n".join(lines) + "\n")
+
+
+if __name__ == "__main__" and len(sys.argv) > 1:
+    summary(sys.argv[1])
