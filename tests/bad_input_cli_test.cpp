@@ -4,8 +4,11 @@
 // data and 2 for bad usage, and leaves no output or temporary file behind.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
 
+#include "basis/image.h"
+#include "basis/image_io.h"
 #include "basis/qt_file.h"
 #include "basis_generated.h"
 #include "support/run_tool.h"
@@ -23,17 +26,22 @@ struct Expectation {
   std::string mentions;  // text stderr must contain (the input's name)
 };
 
-void write_text(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
+void write_text(const std::string& path, const std::string& text) {
+  std::ofstream(path) << text;
+}
 
 // Valid inputs every case starts from, and broken variants of each kind of file.
 void write_inputs(const TempDir& dir) {
   write_text(dir.file("ok.json"), R"({"model": "lambert", "albedo": 0.5})");
-  ASSERT_EQ(run_tool("brdf2qt", {"ok.json", "--wo-res", "3", "--wi-res", "8", "-q"}, dir.path()).status, 0);
-  ASSERT_EQ(run_tool("capture2qt", {"--env-constant", "1,1,1", "--at", "0,0,0", "--res", "8",
-                                    "-o", "cap.qt", "-q"},
-                     dir.path())
-                .status,
-            0);
+  ASSERT_EQ(
+      run_tool("brdf2qt", {"ok.json", "--wo-res", "3", "--wi-res", "8", "-q"}, dir.path()).status,
+      0);
+  ASSERT_EQ(
+      run_tool("capture2qt",
+               {"--env-constant", "1,1,1", "--at", "0,0,0", "--res", "8", "-o", "cap.qt", "-q"},
+               dir.path())
+          .status,
+      0);
   const std::string table = testing::slurp(dir.file("ok.qt"));
   write_text(dir.file("truncated.qt"), table.substr(0, table.size() / 3));
   write_text(dir.file("empty.qt"), "");
@@ -52,6 +60,16 @@ void write_inputs(const TempDir& dir) {
   write_text(dir.file("foreign.obj"), "\x89PNG\r\n\x1a\n....");
   write_text(dir.file("empty.csv"), "");
   write_text(dir.file("foreign.csv"), "\x89PNG\r\n\x1a\n....");
+  // Environment maps with one NaN, one infinite and one negative texel.
+  for (const auto& [name, value] : {std::pair<std::string, float>{"nan.exr", std::nanf("")},
+                                    {"inf.exr", INFINITY},
+                                    {"negative.exr", -1.0f}}) {
+    Image env(16, 16, 3);  // square: also a valid capture image but for the bad texel
+    for (float& p : env.pixels)
+      p = 1;
+    env.at(5, 3, 1) = value;
+    write_image(dir.file(name), env);
+  }
   std::filesystem::create_directories(dir.file("folder"));
   // A .qt file of a future format version, otherwise well formed.
   const QtFile ok = QtFile::load(dir.file("ok.qt"));
@@ -65,8 +83,8 @@ void write_inputs(const TempDir& dir) {
                               tree.nodes().size()),
       b.CreateVectorOfStructs(reinterpret_cast<const format::Quad*>(tree.errors().data()),
                               tree.errors().size()));
-  format::FinishFileBuffer(b, format::CreateFile(b, 99, format::Kind::Tree,
-                                                 format::Mapping::CosineConcentric, trees));
+  format::FinishFileBuffer(
+      b, format::CreateFile(b, 99, format::Kind::Tree, format::Mapping::CosineConcentric, trees));
   std::ofstream(dir.file("future.qt"), std::ios::binary)
       .write(reinterpret_cast<const char*>(b.GetBufferPointer()), std::streamsize(b.GetSize()));
 }
@@ -75,7 +93,8 @@ void check(const TempDir& dir, const std::string& tool, const Expectation& e) {
   const auto before = dir.entries();
   const auto r = run_tool(tool, e.args, dir.path());
   std::string command = tool;
-  for (const auto& a : e.args) command += " " + a;
+  for (const auto& a : e.args)
+    command += " " + a;
   EXPECT_EQ(r.status, e.status) << command << "\n" << r.err;
   const int lines = testing::line_count(r.err);
   EXPECT_TRUE(lines >= 1 && lines <= 3) << command << "\n" << r.err;
@@ -98,9 +117,9 @@ TEST(BadInputMatrix, QtReaders) {
 TEST(BadInputMatrix, Specs) {
   TempDir dir;
   write_inputs(dir);
-  for (const std::string name : {"missing.json", "empty.json", "folder", "truncated.json",
-                                 "foreign.json", "nan.json", "negative.json", "missing_field.json",
-                                 "unknown.json"})
+  for (const std::string name :
+       {"missing.json", "empty.json", "folder", "truncated.json", "foreign.json", "nan.json",
+        "negative.json", "missing_field.json", "unknown.json"})
     check(dir, "brdf2qt", {{name, "-o", "out.qt", "-q"}, 1, name});
   check(dir, "brdf2qt", {{"negative.json", "-o", "out.qt"}, 1, "field 'ks'"});
   check(dir, "brdf2qt", {{"missing_field.json", "-o", "out.qt"}, 1, "field 'alpha'"});
@@ -114,7 +133,13 @@ TEST(BadInputMatrix, CaptureInputs) {
     check(dir, "capture2qt", {{"--env", name, "--at", "0,0,0", "-o", "out.qt"}, 1, name});
     check(dir, "capture2qt", {{"--image", name, "-o", "out.qt"}, 1, name});
   }
-  for (const std::string name : {"missing.obj", "empty.obj", "truncated.obj", "foreign.obj", "folder"})
+  // Negative environment texels are read as 0 with a warning (Capture2qtCli tests that).
+  for (const std::string name : {"nan.exr", "inf.exr"})
+    check(dir, "capture2qt", {{"--env", name, "--at", "0,0,0", "-o", "out.qt"}, 1, name});
+  for (const std::string name : {"nan.exr", "inf.exr", "negative.exr"})
+    check(dir, "capture2qt", {{"--image", name, "-o", "out.qt"}, 1, name});
+  for (const std::string name :
+       {"missing.obj", "empty.obj", "truncated.obj", "foreign.obj", "folder"})
     check(dir, "capture2qt",
           {{"--env-constant", "1,1,1", "--scene", name, "--sample", "2", "-o", "out.qt"}, 1, name});
   for (const std::string name : {"missing.csv", "empty.csv", "foreign.csv", "folder"})
@@ -134,14 +159,16 @@ TEST(BadInputMatrix, AbsurdSizesAndTolerances) {
   for (const std::string res : {"1", "257", "1000000", "-4", "x"})
     check(dir, "brdf2qt", {{"ok.json", "--wo-res", res, "-o", "out.qt"}, 2, "--wo-res"});
   check(dir, "brdf2qt", {{"ok.json", "--tolerance", "-0.1", "-o", "out.qt"}, 2, "--tolerance"});
-  check(dir, "capture2qt", {{"--env-constant", "1,1,1", "--at", "0,0,0", "--tolerance", "-1",
-                             "-o", "out.qt"},
-                            2, "--tolerance"});
-  check(dir, "capture2qt", {{"--env-constant", "1,1,1", "--at", "0,0,0", "--spp", "1000000",
-                             "-o", "out.qt"},
-                            2, "--spp"});
-  check(dir, "capture2qt", {{"--env-constant", "1,1,1", "--sample", "100000000000", "-o", "out.qt"},
-                            2, "--sample"});
+  check(dir, "capture2qt",
+        {{"--env-constant", "1,1,1", "--at", "0,0,0", "--tolerance", "-1", "-o", "out.qt"},
+         2,
+         "--tolerance"});
+  check(dir, "capture2qt",
+        {{"--env-constant", "1,1,1", "--at", "0,0,0", "--spp", "1000000", "-o", "out.qt"},
+         2,
+         "--spp"});
+  check(dir, "capture2qt",
+        {{"--env-constant", "1,1,1", "--sample", "100000000000", "-o", "out.qt"}, 2, "--sample"});
   check(dir, "qtinfo", {{"ok.qt", "--png", "x.png", "--size", "1000000"}, 2, "--size"});
 }
 

@@ -32,9 +32,9 @@ TEST(Brdf2qtCli, TabulatesASpecWithDefaultsAndOverrides) {
   EXPECT_EQ(table.brdf_model(), "phong");
   EXPECT_EQ(table.provenance().tool, "brdf2qt");
   // Flags override the spec's table block.
-  const auto o = run_tool("brdf2qt", {"glossy.json", "-o", "other.qt", "--wo-res", "7",
-                                      "--wi-res", "32", "--tolerance", "0.02", "--no-tilt",
-                                      "--quiet", "--threads", "1"},
+  const auto o = run_tool("brdf2qt",
+                          {"glossy.json", "-o", "other.qt", "--wo-res", "7", "--wi-res", "32",
+                           "--tolerance", "0.02", "--no-tilt", "--quiet", "--threads", "1"},
                           dir.path());
   ASSERT_EQ(o.status, 0) << o.err;
   EXPECT_TRUE(o.out.empty());
@@ -44,9 +44,9 @@ TEST(Brdf2qtCli, TabulatesASpecWithDefaultsAndOverrides) {
   EXPECT_EQ(other.projection().tolerance, 0.02);
   EXPECT_FALSE(other.brdf_table().has_tilt());
   // The same spec and flags give the same bytes, whatever the thread count.
-  const auto again = run_tool("brdf2qt", {"glossy.json", "-o", "again.qt", "--wo-res", "7",
-                                          "--wi-res", "32", "--tolerance", "0.02", "--no-tilt",
-                                          "--quiet", "--threads", "2"},
+  const auto again = run_tool("brdf2qt",
+                              {"glossy.json", "-o", "again.qt", "--wo-res", "7", "--wi-res", "32",
+                               "--tolerance", "0.02", "--no-tilt", "--quiet", "--threads", "2"},
                               dir.path());
   ASSERT_EQ(again.status, 0);
   EXPECT_EQ(testing::slurp(dir.file("other.qt")), testing::slurp(dir.file("again.qt")));
@@ -54,7 +54,8 @@ TEST(Brdf2qtCli, TabulatesASpecWithDefaultsAndOverrides) {
 
 TEST(Brdf2qtCli, BadSpecsAreOneLineExitOneAndNoOutput) {
   TempDir dir;
-  std::ofstream(dir.file("negative.json")) << "{\"model\": \"phong\",\n \"ks\": -0.4,\n \"exponent\": 3}";
+  std::ofstream(dir.file("negative.json"))
+      << "{\"model\": \"phong\",\n \"ks\": -0.4,\n \"exponent\": 3}";
   std::ofstream(dir.file("broken.json")) << "{\"model\": \"phong\",\n \"ks\": 0.4,\n";
   std::ofstream(dir.file("unknown.json")) << R"({"model": "velvet"})";
   for (const std::string name : {"negative", "broken", "unknown", "missing"}) {
@@ -72,16 +73,19 @@ TEST(Brdf2qtCli, BadSpecsAreOneLineExitOneAndNoOutput) {
 TEST(Brdf2qtCli, BadUsageIsExitTwo) {
   TempDir dir;
   std::ofstream(dir.file("l.json")) << R"({"model": "lambert", "albedo": 0.5})";
-  for (const std::vector<std::string>& args :
-       {std::vector<std::string>{}, {"l.json", "--wi-res", "3"}, {"l.json", "--wi-res", "1024"},
-        {"l.json", "--wo-res", "1"}, {"l.json", "--tolerance", "-1"}, {"l.json", "--threads", "0"},
-        {"l.json", "--frobnicate"}}) {
+  for (const std::vector<std::string>& args : {std::vector<std::string>{},
+                                               {"l.json", "--wi-res", "3"},
+                                               {"l.json", "--wi-res", "1024"},
+                                               {"l.json", "--wo-res", "1"},
+                                               {"l.json", "--tolerance", "-1"},
+                                               {"l.json", "--threads", "0"},
+                                               {"l.json", "--frobnicate"}}) {
     const auto r = run_tool("brdf2qt", args, dir.path());
     EXPECT_EQ(r.status, 2) << r.err;
     EXPECT_EQ(testing::line_count(r.err), 1) << r.err;
   }
-  const auto missing_folder = run_tool("brdf2qt", {"l.json", "-o", "no/such/l.qt", "--wo-res",
-                                                   "3", "--wi-res", "8"}, dir.path());
+  const auto missing_folder = run_tool(
+      "brdf2qt", {"l.json", "-o", "no/such/l.qt", "--wo-res", "3", "--wi-res", "8"}, dir.path());
   EXPECT_EQ(missing_folder.status, 1);
   EXPECT_EQ(dir.entries(), std::vector<std::string>{"l.json"});
 }
@@ -89,11 +93,13 @@ TEST(Brdf2qtCli, BadUsageIsExitTwo) {
 TEST(Brdf2qtCli, InterruptLeavesNoOutput) {
   TempDir dir;
   std::ofstream(dir.file("sharp.json")) << R"({"model": "ggx", "f0": 0.9, "alpha": 0.02})";
-  const auto r = run_tool("brdf2qt", {"sharp.json", "--wo-res", "129", "--wi-res", "256"},
-                          dir.path(), 400);
-  EXPECT_EQ(r.status, 130) << r.err;
-  EXPECT_NE(r.err.find("interrupted"), std::string::npos);
-  EXPECT_EQ(dir.entries(), std::vector<std::string>{"sharp.json"});
+  for (const int signal_number : {SIGINT, SIGTERM}) {
+    const auto r = run_tool("brdf2qt", {"sharp.json", "--wo-res", "129", "--wi-res", "256"},
+                            dir.path(), 400, signal_number);
+    EXPECT_EQ(r.status, 130) << r.err;
+    EXPECT_NE(r.err.find("interrupted"), std::string::npos);
+    EXPECT_EQ(dir.entries(), std::vector<std::string>{"sharp.json"});
+  }
 }
 
 }  // namespace

@@ -24,11 +24,9 @@ Vec3 random_direction(std::mt19937& rng) {
 }
 
 std::vector<Brdf> analytic_models() {
-  return {Lambert{{0.5, 0.6, 0.7}},
-          Phong{{0.2, 0.2, 0.2}, {0.5, 0.4, 0.3}, 50},
+  return {Lambert{{0.5, 0.6, 0.7}}, Phong{{0.2, 0.2, 0.2}, {0.5, 0.4, 0.3}, 50},
           BlinnPhong{{0.1, 0.1, 0.1}, {0.6, 0.6, 0.6}, 200},
-          Ward{{0.3, 0.3, 0.3}, {0.2, 0.2, 0.2}, 0.15},
-          Ggx{{0.1, 0.1, 0.1}, {0.9, 0.6, 0.5}, 0.3}};
+          Ward{{0.3, 0.3, 0.3}, {0.2, 0.2, 0.2}, 0.15}, Ggx{{0.1, 0.1, 0.1}, {0.9, 0.6, 0.5}, 0.3}};
 }
 
 TEST(BrdfModels, AreReciprocalAndNonNegative) {
@@ -83,9 +81,9 @@ std::string spec_error(const TempDir& dir, const std::string& text) {
 
 TEST(BrdfSpec, ReadsEveryModel) {
   TempDir dir;
-  const BrdfSpec phong = read_brdf_spec(write_spec(
-      dir, "p.json",
-      R"({"model": "phong", "kd": [0.5, 0.4, 0.3], "ks": 0.2, "exponent": 40,
+  const BrdfSpec phong = read_brdf_spec(
+      write_spec(dir, "p.json",
+                 R"({"model": "phong", "kd": [0.5, 0.4, 0.3], "ks": 0.2, "exponent": 40,
           "table": {"wo_res": 9, "wi_res": 32, "tolerance": 0.02}})"));
   ASSERT_TRUE(std::holds_alternative<Phong>(phong.brdf));
   EXPECT_EQ(std::get<Phong>(phong.brdf).kd, (Color{0.5, 0.4, 0.3}));
@@ -95,8 +93,8 @@ TEST(BrdfSpec, ReadsEveryModel) {
   EXPECT_EQ(phong.wi_resolution, 32);
   EXPECT_EQ(phong.tolerance, 0.02);
   EXPECT_EQ(channel_count(phong.brdf), 3);
-  const BrdfSpec ggx = read_brdf_spec(
-      write_spec(dir, "g.json", R"({"model": "ggx", "f0": 0.04, "alpha": 0.2})"));
+  const BrdfSpec ggx =
+      read_brdf_spec(write_spec(dir, "g.json", R"({"model": "ggx", "f0": 0.04, "alpha": 0.2})"));
   EXPECT_EQ(std::get<Ggx>(ggx.brdf).kd, (Color{0, 0, 0}));
   EXPECT_EQ(channel_count(ggx.brdf), 1);
   EXPECT_TRUE(std::holds_alternative<Lambert>(
@@ -105,8 +103,8 @@ TEST(BrdfSpec, ReadsEveryModel) {
       read_brdf_spec(write_spec(dir, "w.json", R"({"model": "ward", "ks": 0.2, "alpha": 0.1})"))
           .brdf));
   EXPECT_TRUE(std::holds_alternative<BlinnPhong>(
-      read_brdf_spec(write_spec(dir, "b.json",
-                                R"({"model": "blinn-phong", "ks": 0.2, "exponent": 8})"))
+      read_brdf_spec(
+          write_spec(dir, "b.json", R"({"model": "blinn-phong", "ks": 0.2, "exponent": 8})"))
           .brdf));
 }
 
@@ -127,10 +125,13 @@ TEST(BrdfSpec, ErrorsNameFileLineAndField) {
             ":1: field 'alpha': must be a number, got string");
   EXPECT_EQ(spec_error(dir, "{\"model\": \"ggx\", \"f0\": 0.04, \"alpha\": 0}"),
             ":1: field 'alpha': must be from 0.001 to 1, got 0");
-  EXPECT_EQ(spec_error(dir, "{\"model\": \"lambert\", \"albedo\": 0.5,\n \"table\": {\"wi_res\": 3.5}}"),
-            ":2: field 'table.wi_res': must be a whole number");
+  EXPECT_EQ(
+      spec_error(dir, "{\"model\": \"lambert\", \"albedo\": 0.5,\n \"table\": {\"wi_res\": 3.5}}"),
+      ":2: field 'table.wi_res': must be a whole number");
   const std::string bad_json = spec_error(dir, "{\"model\": \"lambert\",\n \"albedo\": NaN}");
   EXPECT_EQ(bad_json.rfind(":2: invalid JSON: ", 0), 0u) << bad_json;
+  EXPECT_EQ(spec_error(dir, "{\"model\": \"phong\", \"ks\": 0.4, \"exponent\": 1e400}"),
+            ": invalid JSON: a number is out of range");
   EXPECT_EQ(spec_error(dir, "[1, 2]"), ":1: a BRDF spec is a JSON object {\"model\": ..., ...}");
   EXPECT_THROW(read_brdf_spec(dir.file("missing.json")), FileError);
   EXPECT_THROW(read_brdf_spec(dir.path()), FileError);
@@ -180,7 +181,8 @@ TEST(MerlBrdf, FileFromAnalyticBrdfReproducesItsAlbedo) {
   options.tilt_derivatives = false;
   const BrdfTable table = tabulate_brdf(spec.brdf, options);
   Grid one(2, 1);
-  for (float& t : one.texels) t = 1;
+  for (float& t : one.texels)
+    t = 1;
   const Quadtree light = project(one);
   // At table entries (s = 0, 0.25, 0.5, 0.75 on the 9 x 9 grid: 0, 28, 53 and 74 degrees), so
   // that the interpolation between entries (tested elsewhere) does not enter.
@@ -222,9 +224,9 @@ TEST(MerlBrdf, MissingSamplesCountAsZeroAndBadFilesAreErrors) {
     MerlBrdf::read(dir.file("header.binary"));
     FAIL();
   } catch (const FileError& e) {
-    EXPECT_EQ(std::string(e.what()),
-              dir.file("header.binary") + ": not a MERL BRDF (dimensions 90 x 90 x 360, "
-                                          "expected 90 x 90 x 180)");
+    EXPECT_EQ(std::string(e.what()), dir.file("header.binary") +
+                                         ": not a MERL BRDF (dimensions 90 x 90 x 360, "
+                                         "expected 90 x 90 x 180)");
   }
   {
     std::ofstream s(dir.file("short.binary"), std::ios::binary);

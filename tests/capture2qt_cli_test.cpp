@@ -27,8 +27,9 @@ void write_room(const TempDir& dir) {
 
 TEST(Capture2qtCli, CapturesAPointUnderAConstantLight) {
   TempDir dir;
-  const auto r = run_tool("capture2qt", {"--env-constant", "1,2,3", "--at", "0,0,0", "--normal",
-                                         "0,0,2", "--res", "16", "-o", "one.qt"},
+  const auto r = run_tool("capture2qt",
+                          {"--env-constant", "1,2,3", "--at", "0,0,0", "--normal", "0,0,2", "--res",
+                           "16", "-o", "one.qt"},
                           dir.path());
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("one.qt: 1 captures of 16 x 16 texels"), std::string::npos) << r.out;
@@ -44,9 +45,9 @@ TEST(Capture2qtCli, SamplesAnObjSceneDeterministicallyAndDumpsTexels) {
   TempDir dir;
   write_room(dir);
   std::filesystem::create_directories(dir.file("dump"));
-  const std::vector<std::string> args = {"--env-constant", "1,1,1", "--scene", "room.obj",
-                                         "--sample", "6", "--seed", "9", "--res", "16",
-                                         "--quiet", "--dump", "dump"};
+  const std::vector<std::string> args = {
+      "--env-constant", "1,1,1", "--scene", "room.obj", "--sample", "6", "--seed", "9",
+      "--res",          "16",    "--quiet", "--dump",   "dump"};
   auto with = [&](std::vector<std::string> extra) {
     std::vector<std::string> all = args;
     all.insert(all.end(), extra.begin(), extra.end());
@@ -71,8 +72,8 @@ TEST(Capture2qtCli, SamplesAnObjSceneDeterministicallyAndDumpsTexels) {
 TEST(Capture2qtCli, ReadsPointFilesAndCompressesImages) {
   TempDir dir;
   std::ofstream(dir.file("points.csv")) << "# x,y,z,nx,ny,nz\n0,0,0,0,0,1\n\n1,2,3,0,3,0\n";
-  ASSERT_EQ(run_tool("capture2qt", {"--env-constant", "1,1,1", "--points", "points.csv", "--res",
-                                    "8", "-q"},
+  ASSERT_EQ(run_tool("capture2qt",
+                     {"--env-constant", "1,1,1", "--points", "points.csv", "--res", "8", "-q"},
                      dir.path())
                 .status,
             0);
@@ -84,7 +85,8 @@ TEST(Capture2qtCli, ReadsPointFilesAndCompressesImages) {
   Image image(32, 32, 3);
   for (int y = 0; y < 32; ++y)
     for (int x = 0; x < 32; ++x)
-      for (int c = 0; c < 3; ++c) image.at(x, y, c) = x > y ? 2.0f : 0.5f + 0.1f * c;
+      for (int c = 0; c < 3; ++c)
+        image.at(x, y, c) = x > y ? 2.0f : 0.5f + 0.1f * c;
   write_image(dir.file("capture.exr"), image);
   const auto r = run_tool("capture2qt", {"--image", "capture.exr", "--tolerance", "0"}, dir.path());
   ASSERT_EQ(r.status, 0) << r.err;
@@ -92,24 +94,48 @@ TEST(Capture2qtCli, ReadsPointFilesAndCompressesImages) {
   ASSERT_EQ(tree.kind(), QtKind::tree);
   const Grid back = reconstruct(tree.tree());
   for (int y = 0; y < 32; ++y)
-    for (int x = 0; x < 32; ++x) EXPECT_EQ(back.at(0, 2, x, y), image.at(x, y, 2));
+    for (int x = 0; x < 32; ++x)
+      EXPECT_EQ(back.at(0, 2, x, y), image.at(x, y, 2));
 }
 
-TEST(Capture2qtCli, CountsAndRepairsBadEnvironmentTexels) {
+TEST(Capture2qtCli, RefusesNanAndInfiniteEnvironmentTexelsUnlessAskedToZeroThem) {
   TempDir dir;
   Image env(64, 32, 3);
-  for (float& p : env.pixels) p = 1;
+  for (float& p : env.pixels)
+    p = 1;
   env.at(1, 1, 0) = std::nanf("");
   env.at(2, 1, 1) = INFINITY;
   env.at(3, 1, 2) = -4;
   write_image(dir.file("env.exr"), env);
-  const auto r = run_tool("capture2qt", {"--env", "env.exr", "--at", "0,0,0", "--res", "8"},
-                          dir.path());
+  const auto refused =
+      run_tool("capture2qt", {"--env", "env.exr", "--at", "0,0,0", "--res", "8"}, dir.path());
+  EXPECT_EQ(refused.status, 1);
+  EXPECT_EQ(refused.err,
+            "capture2qt: env.exr: 1 NaN and 1 infinite texel values (repair the "
+            "map, or pass --zero-invalid to read them as 0)\n");
+  EXPECT_FALSE(std::filesystem::exists(dir.file("captures.qt")));
+
+  const auto r =
+      run_tool("capture2qt", {"--env", "env.exr", "--at", "0,0,0", "--res", "8", "--zero-invalid"},
+               dir.path());
   ASSERT_EQ(r.status, 0) << r.err;
-  EXPECT_EQ(r.err, "capture2qt: warning: env.exr: 1 NaN, 1 infinite and 1 negative texel values "
-                   "set to 0\n");
+  EXPECT_EQ(r.err,
+            "capture2qt: warning: env.exr: 1 NaN, 1 infinite and 1 negative texel values "
+            "set to 0\n");
   const QtFile f = QtFile::load(dir.file("captures.qt"));
   EXPECT_TRUE(std::isfinite(integrate(f.trees().tree(0), 0, 0)));
+
+  // Negative texels alone (real maps carry a few from their processing) are read as 0.
+  env.at(1, 1, 0) = 1;
+  env.at(2, 1, 1) = 1;
+  write_image(dir.file("negative.exr"), env);
+  const auto negative =
+      run_tool("capture2qt", {"--env", "negative.exr", "--at", "0,0,0", "--res", "8", "-o", "n.qt"},
+               dir.path());
+  ASSERT_EQ(negative.status, 0) << negative.err;
+  EXPECT_EQ(negative.err,
+            "capture2qt: warning: negative.exr: 0 NaN, 0 infinite and 1 negative "
+            "texel values set to 0\n");
 }
 
 TEST(Capture2qtCli, BadScenesAndImagesAreOneLineExitOne) {
@@ -139,8 +165,9 @@ TEST(Capture2qtCli, BadScenesAndImagesAreOneLineExitOne) {
   EXPECT_NE(run_tool("capture2qt", cases[4], dir.path()).err.find("bad.csv:2:"), std::string::npos);
   // A degenerate triangle is dropped with a warning.
   std::ofstream(dir.file("flat.obj")) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\n";
-  const auto flat = run_tool("capture2qt", {"--env-constant", "1,1,1", "--scene", "flat.obj",
-                                            "--sample", "2", "--res", "8", "-o", "flat.qt"},
+  const auto flat = run_tool("capture2qt",
+                             {"--env-constant", "1,1,1", "--scene", "flat.obj", "--sample", "2",
+                              "--res", "8", "-o", "flat.qt"},
                              dir.path());
   EXPECT_EQ(flat.status, 0) << flat.err;
   EXPECT_NE(flat.err.find("1 degenerate triangles dropped"), std::string::npos) << flat.err;
@@ -173,11 +200,14 @@ TEST(Capture2qtCli, BadUsageIsExitTwo) {
 TEST(Capture2qtCli, InterruptLeavesNoOutput) {
   TempDir dir;
   write_room(dir);
-  const auto r = run_tool("capture2qt", {"--env-constant", "1,1,1", "--scene", "room.obj",
-                                         "--sample", "100000", "--res", "64"},
-                          dir.path(), 500);
-  EXPECT_EQ(r.status, 130) << r.err;
-  EXPECT_EQ(dir.entries(), (std::vector<std::string>{"room.mtl", "room.obj"}));
+  for (const int signal_number : {SIGINT, SIGTERM}) {
+    const auto r = run_tool(
+        "capture2qt",
+        {"--env-constant", "1,1,1", "--scene", "room.obj", "--sample", "100000", "--res", "64"},
+        dir.path(), 500, signal_number);
+    EXPECT_EQ(r.status, 130) << r.err;
+    EXPECT_EQ(dir.entries(), (std::vector<std::string>{"room.mtl", "room.obj"}));
+  }
 }
 
 }  // namespace

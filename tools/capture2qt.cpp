@@ -20,9 +20,10 @@ namespace {
 // with v in [y/N, (y+1)/N). Refuses NaN, infinite and negative texels.
 basis::Grid image_to_grid(const basis::Image& image, const std::string& path) {
   if (image.width != image.height || !basis::is_valid_resolution(image.width))
-    throw basis::FileError(path + ": a capture image is square with a power-of-two side from 2 "
-                                  "to 512, got " + std::to_string(image.width) + " x " +
-                           std::to_string(image.height));
+    throw basis::FileError(path +
+                           ": a capture image is square with a power-of-two side from 2 "
+                           "to 512, got " +
+                           std::to_string(image.width) + " x " + std::to_string(image.height));
   basis::Grid grid(image.width, 3);
   long long bad = 0;
   for (int y = 0; y < image.height; ++y)
@@ -42,7 +43,8 @@ basis::Image grid_to_image(const basis::Grid& grid) {
   basis::Image image(grid.resolution, grid.resolution, 3);
   for (int y = 0; y < grid.resolution; ++y)
     for (int x = 0; x < grid.resolution; ++x)
-      for (int c = 0; c < 3; ++c) image.at(x, y, c) = grid.at(0, c, x, y);
+      for (int c = 0; c < 3; ++c)
+        image.at(x, y, c) = grid.at(0, c, x, y);
   return image;
 }
 
@@ -58,18 +60,18 @@ int main(int argc, char** argv) {
       "escape take the environment averaged over their stratum's solid angle; bright "
       "environment pixels (a sun) are split into pieces whose energy goes exactly into the "
       "texel they fall in, behind a shadow ray, so that no sun is lost or multiplied. "
-      "Environment texels that are NaN, infinite or negative are set to 0, with a warning that "
-      "counts them.\n\n"
+      "An environment map with NaN or infinite texels is refused (exit 1) unless --zero-invalid "
+      "reads them as 0; negative texels are read as 0; a warning counts what was set to 0.\n\n"
       "Or, with --image, compress one capture image (square, power-of-two side, texel (x, y) "
       "at pixel column x, row y) into a single-tree .qt file.",
       "capture2qt");
   std::string env_path, env_constant, scene_path, at, normal_text = "0,0,1", points_path, output,
-                                                          dump, image_path;
+                                                      dump, image_path;
   double env_rotate = 0, tolerance = 0.05;
   long long sample = 0;
   std::uint64_t seed = 1;
   int res = 128, spp = 4, threads = 0;
-  bool absolute = false, quiet = false, json = false;
+  bool absolute = false, zero_invalid = false, quiet = false, json = false;
   auto* light = app.add_option_group("light", "environment (one of)");
   light->add_option("--env", env_path,
                     "lat-long environment map (EXR, HDR, any format OpenImageIO reads; at most "
@@ -83,9 +85,10 @@ int main(int argc, char** argv) {
   where->add_option("--at", at, "one point X,Y,Z (with --normal)");
   where->add_option("--points", points_path,
                     "CSV file of points: x,y,z,nx,ny,nz per line (up to 10^7 points)");
-  where->add_option("--sample", sample,
-                    "N points uniformly over the scene's surfaces, normals facing the side the "
-                    "triangles' counter-clockwise winding faces (up to 10^7)")
+  where
+      ->add_option("--sample", sample,
+                   "N points uniformly over the scene's surfaces, normals facing the side the "
+                   "triangles' counter-clockwise winding faces (up to 10^7)")
       ->check(CLI::Range(1LL, 10000000LL));
   where->add_option("--image", image_path, "compress this capture image instead of tracing");
   app.add_option("--normal", normal_text, "normal at --at (default 0,0,1)");
@@ -108,6 +111,8 @@ int main(int argc, char** argv) {
   app.add_option("--dump", dump, "also write every capture's texels as DIR/capture_K.exr");
   app.add_option("--threads", threads, "worker threads (default: all cores)")
       ->check(CLI::Range(1, 1024));
+  app.add_flag("--zero-invalid", zero_invalid,
+               "read NaN and infinite environment texels as 0 instead of refusing the map");
   app.add_flag("--json", json, "print the summary as JSON");
   app.add_flag("-q,--quiet", quiet, "no progress bar, warnings or summary");
   app.set_version_flag("--version", basis::kVersion);
@@ -135,9 +140,10 @@ int main(int argc, char** argv) {
         output = std::filesystem::path(image_path).replace_extension(".qt").filename().string();
       const nlohmann::ordered_json parameters = {{"tolerance", tolerance},
                                                  {"mode", absolute ? "absolute" : "relative"}};
-      basis::write_qt(output, basis::encode_tree(tree.view(), projection,
-                                                 {"capture2qt", basis::kVersion,
-                                                  parameters.dump(), {image_path}}));
+      basis::write_qt(
+          output,
+          basis::encode_tree(tree.view(), projection,
+                             {"capture2qt", basis::kVersion, parameters.dump(), {image_path}}));
       if (!quiet)
         std::printf("%s: one capture of %d x %d texels, %d nodes\n", output.c_str(), res, res,
                     tree.node_count());
@@ -156,12 +162,20 @@ int main(int argc, char** argv) {
       }
       return basis::Environment(basis::read_image(env_path), env_rotate);
     }();
-    if (!quiet && environment.repairs().total() > 0)
-      std::fprintf(stderr,
-                   "capture2qt: warning: %s: %lld NaN, %lld infinite and %lld negative texel "
-                   "values set to 0\n",
-                   env_path.c_str(), environment.repairs().nan, environment.repairs().infinite,
-                   environment.repairs().negative);
+    // NaN and infinities are refused unless asked for; negative texels, which real maps
+    // carry from their processing, are read as 0 with a warning.
+    if (const basis::EnvironmentRepairs& bad = environment.repairs(); bad.total() > 0) {
+      if (bad.nan + bad.infinite > 0 && !zero_invalid)
+        throw basis::FileError(env_path + ": " + std::to_string(bad.nan) + " NaN and " +
+                               std::to_string(bad.infinite) +
+                               " infinite texel values (repair the map, or pass --zero-invalid "
+                               "to read them as 0)");
+      if (!quiet)
+        std::fprintf(stderr,
+                     "capture2qt: warning: %s: %lld NaN, %lld infinite and %lld negative texel "
+                     "values set to 0\n",
+                     env_path.c_str(), bad.nan, bad.infinite, bad.negative);
+    }
 
     // Scene.
     std::unique_ptr<basis::TriangleMesh> mesh;
@@ -251,12 +265,12 @@ int main(int argc, char** argv) {
                 << "\n";
       return;
     }
-    std::printf("%s: %zu captures of %d x %d texels (%d rays each), %zu nodes (%.1f per "
-                "capture), %.2f MiB; %.2f M rays, projection %.1f %% of capture time, %.2f s\n",
-                output.c_str(), set.positions.size(), res, res, spp,
-                set.trees.view().total_nodes(),
-                double(set.trees.view().total_nodes()) / double(set.positions.size()),
-                double(bytes.size()) / (1 << 20), double(timings.stats.rays) * 1e-6,
-                100 * projection_share, seconds);
+    std::printf(
+        "%s: %zu captures of %d x %d texels (%d rays each), %zu nodes (%.1f per "
+        "capture), %.2f MiB; %.2f M rays, projection %.1f %% of capture time, %.2f s\n",
+        output.c_str(), set.positions.size(), res, res, spp, set.trees.view().total_nodes(),
+        double(set.trees.view().total_nodes()) / double(set.positions.size()),
+        double(bytes.size()) / (1 << 20), double(timings.stats.rays) * 1e-6, 100 * projection_share,
+        seconds);
   });
 }

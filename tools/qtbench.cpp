@@ -17,6 +17,7 @@
 #include "basis/comparison.h"
 #include "basis/image_io.h"
 #include "basis/reference.h"
+#include "basis/rgl.h"
 #include "basis/tilt_study.h"
 #include "basis/trace.h"
 #include "basis/version.h"
@@ -33,17 +34,19 @@ struct Panel {
   Brdf brdf;
 };
 
-std::vector<Panel> panels(bool quick) {
+// The panels; `measured` is an RGL .bsdf file to add as a panel when it exists.
+std::vector<Panel> panels(bool quick, const std::string& measured) {
   const Color kd{0.5, 0.5, 0.5}, ks{0.4, 0.4, 0.4}, g{0.1, 0.1, 0.1}, f0{0.9, 0.9, 0.9};
-  std::vector<Panel> all = {{"lambert", Lambert{{0.8, 0.8, 0.8}}},
-                            {"phong10", Phong{kd, ks, 10}},
-                            {"phong100", Phong{kd, ks, 100}},
-                            {"phong1000", Phong{kd, ks, 1000}},
-                            {"ggx0.5", Ggx{g, f0, 0.5}},
-                            {"ggx0.1", Ggx{g, f0, 0.1}},
-                            {"ggx0.02", Ggx{g, f0, 0.02}}};
-  if (!quick) return all;
-  return {all[0], all[2], all[5]};
+  std::vector<Panel> all = {
+      {"lambert", Lambert{{0.8, 0.8, 0.8}}}, {"phong10", Phong{kd, ks, 10}},
+      {"phong100", Phong{kd, ks, 100}},      {"phong1000", Phong{kd, ks, 1000}},
+      {"ggx0.5", Ggx{g, f0, 0.5}},           {"ggx0.1", Ggx{g, f0, 0.1}},
+      {"ggx0.02", Ggx{g, f0, 0.02}}};
+  if (quick) all = {all[0], all[2], all[5]};
+  if (!measured.empty() && std::filesystem::exists(measured))
+    all.push_back({"rgl:" + std::filesystem::path(measured).stem().string(),
+                   std::shared_ptr<const MeasuredBrdf>(RglBrdf::read(measured))});
+  return all;
 }
 
 // The brightest direction of the map (its sun).
@@ -89,7 +92,8 @@ bool run_plotter(const std::string& script, const std::vector<std::string>& args
   std::vector<std::string> storage = {"/usr/bin/python3", script};
   storage.insert(storage.end(), args.begin(), args.end());
   std::vector<char*> argv;
-  for (auto& a : storage) argv.push_back(a.data());
+  for (auto& a : storage)
+    argv.push_back(a.data());
   argv.push_back(nullptr);
   pid_t pid = 0;
   if (posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0) return false;
@@ -112,7 +116,7 @@ int main(int argc, char** argv) {
       "and the charts DIR/chart.png, DIR/storage.png, DIR/rotation.png (matplotlib through "
       "/usr/bin/python3; the numbers come from here).",
       "qtbench");
-  std::string out_dir, map;
+  std::string out_dir, map, measured;
   bool quick = false;
   int threads = 0;
   app.add_option("--out", out_dir, "output folder (created if missing)")->required();
@@ -120,6 +124,9 @@ int main(int argc, char** argv) {
   app.add_option("--map", map,
                  "lat-long HDR map with a sun (default: the Poly Haven sunrise from Debian's "
                  "blender-data)");
+  app.add_option("--measured", measured,
+                 "an RGL EPFL .bsdf file to add as a panel (default: the shared folder's "
+                 "satin_rosaline when present)");
   app.add_option("--threads", threads, "worker threads for the preparation (timings run on one)")
       ->check(CLI::Range(1, 1024));
   app.set_version_flag("--version", basis::kVersion);
@@ -156,7 +163,14 @@ int main(int argc, char** argv) {
     if (!quick) outgoing.push_back(Vec3(std::sin(0.5), 0, std::cos(0.5)));
 
     // Cases: grids and ground truths, prepared in parallel.
-    const std::vector<Panel> brdfs = panels(quick);
+    if (measured.empty())
+      for (const auto& folder : {std::string("../shared/data/rgl-bsdf"),
+                                 std::string(BASIS_SOURCE_DIR) + "/../shared/data/rgl-bsdf"})
+        if (std::filesystem::exists(folder + "/satin_rosaline_rgb.bsdf")) {
+          measured = folder + "/satin_rosaline_rgb.bsdf";
+          break;
+        }
+    const std::vector<Panel> brdfs = panels(quick, measured);
     std::vector<ComparisonCase> cases;
     std::vector<std::size_t> case_wo;
     for (const Panel& p : brdfs)
@@ -203,7 +217,8 @@ int main(int argc, char** argv) {
         auto [it, fresh] = merged.try_emplace(key, r, 0);
         if (fresh) {
           order.push_back(key);
-          it->second.first.rel_error = it->second.first.convolve_ns = it->second.first.project_ns = 0;
+          it->second.first.rel_error = it->second.first.convolve_ns = it->second.first.project_ns =
+              0;
         }
         ComparisonRow& m = it->second.first;
         m.rel_error += r.rel_error;
@@ -230,9 +245,10 @@ int main(int argc, char** argv) {
       std::ofstream out(std::filesystem::path(out_dir) / "rotation.csv");
       out << "map,brdf,tilt_degrees,method,rel_error\n";
       TiltStudyOptions tilt;
+      tilt.capture_resolution = 128;  // the defaults of capture2qt and brdf2qt
       BrdfTableOptions o;
-      o.wi_resolution = 64;
       if (quick) {
+        tilt.capture_resolution = 64;
         tilt.tilts_degrees = {0, 5, 15, 30};
         tilt.axes = 2;
         tilt.wo_degrees = {0, 40};
@@ -245,8 +261,8 @@ int main(int argc, char** argv) {
         const BrdfTable table = arena->execute([&] { return tabulate_brdf(brdf, o); });
         const std::string name = "phong" + std::to_string(int(exponent));
         for (const TiltStudyRow& r : study_tilts(env, normal, brdf, table.view(), tilt))
-          out << std::filesystem::path(map).stem().string() << "," << name << ","
-              << r.tilt_degrees << ","
+          out << std::filesystem::path(map).stem().string() << "," << name << "," << r.tilt_degrees
+              << ","
               << (r.method == "sh_rotated" ? "sh" + std::to_string(r.sh_order) + "_rotated"
                                            : r.method)
               << "," << r.rel_error << "\n";
@@ -259,7 +275,8 @@ int main(int argc, char** argv) {
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     std::printf("qtbench: %zu rows in %s/results.csv, rotation in %s/rotation.csv%s, %.0f s\n",
                 rows.size(), out_dir.c_str(), out_dir.c_str(),
-                plotted ? ", charts chart.png, storage.png, rotation.png" : " (charts not drawn: "
+                plotted ? ", charts chart.png, storage.png, rotation.png"
+                        : " (charts not drawn: "
                           "run scripts/plot_bench.py DIR)",
                 seconds);
   });

@@ -41,7 +41,8 @@ class SpecReader {
 
   double number(const json& object, const std::string& key, const std::string& path, double lo,
                 double hi) const {
-    if (!object.contains(key)) fail(path, "missing (a number from " + show(lo) + " to " + show(hi) + ")");
+    if (!object.contains(key))
+      fail(path, "missing (a number from " + show(lo) + " to " + show(hi) + ")");
     const json& v = object.at(key);
     if (!v.is_number()) fail(path, "must be a number, got " + std::string(v.type_name()));
     const double x = v.get<double>();
@@ -73,12 +74,15 @@ class SpecReader {
     return c;
   }
 
-  void only(const json& object, const std::set<std::string>& allowed, const std::string& where) const {
+  void only(const json& object, const std::set<std::string>& allowed,
+            const std::string& where) const {
     for (const auto& [key, value] : object.items())
       if (!allowed.count(key)) {
         std::string list;
-        for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
-        fail(where.empty() ? key : where + "." + key, "unknown field (expected one of: " + list + ")");
+        for (const std::string& a : allowed)
+          list += (list.empty() ? "" : ", ") + a;
+        fail(where.empty() ? key : where + "." + key,
+             "unknown field (expected one of: " + list + ")");
       }
   }
 
@@ -108,6 +112,9 @@ BrdfSpec parse_brdf_spec(const std::string& text, const std::string& name,
     const std::size_t colon = what.find(": ", what.find("parse error"));
     throw FileError(name + ":" + std::to_string(line) + ": invalid JSON: " +
                     (colon == std::string::npos ? what : what.substr(colon + 2)));
+  } catch (const json::out_of_range&) {
+    // A number too large for a double, e.g. 1e400 (found by fuzzing).
+    throw FileError(name + ": invalid JSON: a number is out of range");
   }
   if (!root.is_object()) r.fail("", "a BRDF spec is a JSON object {\"model\": ..., ...}");
   if (!root.contains("model") || !root["model"].is_string())
@@ -157,10 +164,13 @@ BrdfSpec parse_brdf_spec(const std::string& text, const std::string& name,
 
   if (root.contains("table")) {
     const json& t = root["table"];
-    if (!t.is_object()) r.fail("table", "must be an object {\"wo_res\", \"wi_res\", \"tolerance\"}");
+    if (!t.is_object())
+      r.fail("table", "must be an object {\"wo_res\", \"wi_res\", \"tolerance\"}");
     r.only(t, {"wo_res", "wi_res", "tolerance"}, "table");
-    if (t.contains("wo_res")) spec.wo_resolution = int(r.number(t, "wo_res", "table.wo_res", 2, 256));
-    if (t.contains("wi_res")) spec.wi_resolution = int(r.number(t, "wi_res", "table.wi_res", 2, 512));
+    if (t.contains("wo_res"))
+      spec.wo_resolution = int(r.number(t, "wo_res", "table.wo_res", 2, 256));
+    if (t.contains("wi_res"))
+      spec.wi_resolution = int(r.number(t, "wi_res", "table.wi_res", 2, 512));
     if (t.contains("tolerance"))
       spec.tolerance = r.number(t, "tolerance", "table.tolerance", 0, 1e6);
     if (spec.wo_resolution && double(*spec.wo_resolution) != t["wo_res"].get<double>())

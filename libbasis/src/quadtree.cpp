@@ -61,27 +61,50 @@ void build_level(const float* __restrict src, const float* __restrict src_error,
 // Level k-1 from level k for a bounded plane with exact bounds: averages, the smallest and
 // largest texel under each cell (from the children's, or the texels themselves at the finest
 // level where lo and hi are null), and the error max(hi - average, average - lo).
-void build_level_exact(const float* __restrict src, const float* __restrict src_lo,
-                       const float* __restrict src_hi, int fine, float* __restrict dst,
-                       float* __restrict dst_lo, float* __restrict dst_hi,
-                       float* __restrict dst_error) {
+void build_level_exact(const float* __restrict src, const float* src_lo, const float* src_hi,
+                       int fine, float* __restrict dst, float* __restrict dst_lo,
+                       float* __restrict dst_hi, float* __restrict dst_error) {
   if (!src_lo) src_lo = src_hi = src;
   const int coarse = fine / 2;
+  if (coarse <= 8) {  // short rows: one fused scalar loop beats four vector loops' set-up
+    for (int y = 0; y < coarse; ++y) {
+      const std::size_t r0 = std::size_t(2 * y) * fine, r1 = r0 + fine;
+      for (int x = 0; x < coarse; ++x) {
+        const std::size_t i = r0 + 2 * x, j = r1 + 2 * x, o = std::size_t(y) * coarse + x;
+        const float average = ((src[i] + src[i + 1]) + (src[j] + src[j + 1])) * 0.25f;
+        const float lo =
+            std::min(std::min(src_lo[i], src_lo[i + 1]), std::min(src_lo[j], src_lo[j + 1]));
+        const float hi =
+            std::max(std::max(src_hi[i], src_hi[i + 1]), std::max(src_hi[j], src_hi[j + 1]));
+        dst[o] = average;
+        dst_lo[o] = lo;
+        dst_hi[o] = hi;
+        dst_error[o] = std::max(hi - average, average - lo);
+      }
+    }
+    return;
+  }
+  // Long rows: one quantity per loop, so that each vectorises.
   for (int y = 0; y < coarse; ++y) {
     const std::size_t r0 = std::size_t(2 * y) * fine, r1 = r0 + fine, o = std::size_t(y) * coarse;
-    for (int x = 0; x < coarse; ++x) {
-      const float average =
-          ((src[r0 + 2 * x] + src[r0 + 2 * x + 1]) + (src[r1 + 2 * x] + src[r1 + 2 * x + 1])) *
-          0.25f;
-      const float lo = std::min(std::min(src_lo[r0 + 2 * x], src_lo[r0 + 2 * x + 1]),
-                                std::min(src_lo[r1 + 2 * x], src_lo[r1 + 2 * x + 1]));
-      const float hi = std::max(std::max(src_hi[r0 + 2 * x], src_hi[r0 + 2 * x + 1]),
-                                std::max(src_hi[r1 + 2 * x], src_hi[r1 + 2 * x + 1]));
-      dst[o + x] = average;
-      dst_lo[o + x] = lo;
-      dst_hi[o + x] = hi;
-      dst_error[o + x] = std::max(hi - average, average - lo);
-    }
+    const float* __restrict a0 = src + r0;
+    const float* __restrict a1 = src + r1;
+    const float* l0 = src_lo + r0;
+    const float* l1 = src_lo + r1;
+    const float* h0 = src_hi + r0;
+    const float* h1 = src_hi + r1;
+    float* __restrict average = dst + o;
+    float* __restrict lo = dst_lo + o;
+    float* __restrict hi = dst_hi + o;
+    float* __restrict error = dst_error + o;
+    for (int x = 0; x < coarse; ++x)
+      average[x] = ((a0[2 * x] + a0[2 * x + 1]) + (a1[2 * x] + a1[2 * x + 1])) * 0.25f;
+    for (int x = 0; x < coarse; ++x)
+      lo[x] = std::min(std::min(l0[2 * x], l0[2 * x + 1]), std::min(l1[2 * x], l1[2 * x + 1]));
+    for (int x = 0; x < coarse; ++x)
+      hi[x] = std::max(std::max(h0[2 * x], h0[2 * x + 1]), std::max(h1[2 * x], h1[2 * x + 1]));
+    for (int x = 0; x < coarse; ++x)
+      error[x] = std::max(hi[x] - average[x], average[x] - lo[x]);
   }
 }
 

@@ -505,7 +505,14 @@ std::shared_ptr<const RglBrdf> RglBrdf::read(const std::string& path) {
   if (std::uintmax_t(in.gcount()) != size)
     throw FileError(path + ": could not read the whole file (" + std::to_string(in.gcount()) +
                     " of " + std::to_string(size) + " bytes)");
+  return parse(std::move(bytes), path);
+}
 
+std::shared_ptr<const RglBrdf> RglBrdf::parse(std::vector<unsigned char> bytes,
+                                              const std::string& path) {
+  if (bytes.size() > kMaxFileSize)
+    throw FileError(path + ": too large for an RGL BRDF (" + std::to_string(bytes.size()) +
+                    " bytes)");
   const TensorFile file(path, std::move(bytes));
   if (file.has("wavelengths") || file.has("spectra"))
     file.fail("spectral files are not supported (only RGB files with an 'rgb' field)");
@@ -633,7 +640,8 @@ Color RglBrdf::evaluate_parametrised(const Vec3& parameter, const Vec3& free) co
   Color f = evaluate_cosine(parameter, free);
   if (f[0] == 0 && f[1] == 0 && f[2] == 0) return f;
   const double cos_free = free.z() / free.norm();
-  for (double& v : f) v /= cos_free;
+  for (double& v : f)
+    v /= cos_free;
   return f;
 }
 

@@ -56,16 +56,21 @@ void register_all() {
       });
     }
     auto light = std::make_shared<const Grid>(sky_grid(n));
-    benchmark::RegisterBenchmark(("project/quadtree/" + std::to_string(n)).c_str(),
-                                 [light](auto& state) {
-                                   QuadtreeProjector projector;
-                                   Quadtree tree;
-                                   for (auto _ : state) {
-                                     projector.project(*light, {.tolerance = 0.05}, tree);
-                                     benchmark::DoNotOptimize(tree.nodes.data());
-                                   }
-                                   state.counters["nodes"] = tree.node_count();
-                                 });
+    // Projection with the default exact bound and with the paper's bound.
+    for (const auto bound : {ProjectionOptions::Bound::exact, ProjectionOptions::Bound::paper}) {
+      const std::string name = bound == ProjectionOptions::Bound::exact
+                                   ? "project/quadtree/"
+                                   : "project/quadtree_paper_bound/";
+      benchmark::RegisterBenchmark((name + std::to_string(n)).c_str(), [light, bound](auto& state) {
+        QuadtreeProjector projector;
+        Quadtree tree;
+        for (auto _ : state) {
+          projector.project(*light, {.tolerance = 0.05, .bound = bound}, tree);
+          benchmark::DoNotOptimize(tree.nodes.data());
+        }
+        state.counters["nodes"] = tree.node_count();
+      });
+    }
   }
 }
 

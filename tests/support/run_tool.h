@@ -35,9 +35,11 @@ inline std::string slurp(const std::filesystem::path& path) {
   return s.str();
 }
 
-// Runs a tool; when interrupt_after_ms >= 0, sends it SIGINT after that many milliseconds.
+// Runs a tool; when interrupt_after_ms >= 0, sends it `signal_number` (SIGINT by default) after
+// that many milliseconds.
 inline ToolResult run_tool(const std::string& tool, const std::vector<std::string>& args,
-                           const std::string& working_directory = "", int interrupt_after_ms = -1) {
+                           const std::string& working_directory = "", int interrupt_after_ms = -1,
+                           int signal_number = SIGINT) {
   const std::filesystem::path exe = tool_directory() / tool;
   const std::filesystem::path capture =
       std::filesystem::temp_directory_path() / ("basis_tool_" + std::to_string(::getpid()));
@@ -63,7 +65,7 @@ inline ToolResult run_tool(const std::string& tool, const std::vector<std::strin
     int status = 0;
     if (interrupt_after_ms >= 0) {
       ::usleep(useconds_t(interrupt_after_ms) * 1000);
-      ::kill(pid, SIGINT);
+      ::kill(pid, signal_number);
     }
     ::waitpid(pid, &status, 0);
     result.status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,9 @@ class MerlBrdf : public MeasuredBrdf {
   // Reads a MERL file; throws FileError naming the file and the problem (missing, short,
   // wrong header, NaN samples). Negative samples mark missing data and evaluate to 0.
   static std::shared_ptr<const MerlBrdf> read(const std::string& path);
+  // The same from the file's bytes; `name` stands for the file in errors.
+  static std::shared_ptr<const MerlBrdf> parse(std::span<const unsigned char> bytes,
+                                               const std::string& name);
   // From raw samples (channel-major, 3 * 90 * 90 * 180 doubles before scaling).
   explicit MerlBrdf(std::vector<double> samples);
 

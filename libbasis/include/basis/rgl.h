@@ -4,6 +4,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "basis/file_error.h"
 #include "basis/measured.h"
@@ -14,6 +15,9 @@ class RglBrdf : public MeasuredBrdf {
  public:
   // Reads an isotropic RGB tensor_file; throws FileError "PATH: problem" for any bad file.
   static std::shared_ptr<const RglBrdf> read(const std::string& path);
+  // The same from the file's bytes; `name` stands for the file in errors.
+  static std::shared_ptr<const RglBrdf> parse(std::vector<unsigned char> bytes,
+                                              const std::string& name);
   ~RglBrdf() override;
   RglBrdf(const RglBrdf&) = delete;
   RglBrdf& operator=(const RglBrdf&) = delete;

@@ -1,0 +1,26 @@
+// libFuzzer target: .qt buffers are loaded and verified; whatever loads must convolve.
+#include <cstddef>
+#include <cstdint>
+
+#include "basis/convolution.h"
+#include "basis/qt_file.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  try {
+    const basis::QtFile file =
+        basis::QtFile::from_bytes({reinterpret_cast<const std::byte*>(data), size}, "input.qt");
+    basis::Grid one(2, 1);
+    for (float& t : one.texels)
+      t = 1;
+    const basis::Quadtree probe = basis::project(one);
+    for (std::size_t i = 0; i < file.trees().size(); ++i)
+      basis::convolve(file.trees().tree(i), probe.view());
+    if (file.kind() == basis::QtKind::brdf_table) {
+      const basis::BrdfTableView table = file.brdf_table();
+      for (std::size_t i = 0; i < table.tilt.size(); ++i)
+        basis::convolve_groups(table.tilt.tree(i), probe.view());
+    }
+  } catch (const basis::FileError&) {
+  }
+  return 0;
+}
