@@ -1,16 +1,14 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets with clang (AddressSanitizer + UBSan) and runs each for a bounded
-# time on its seed corpus (tests/fuzz/corpus, plus small .qt files made by ./build's tools and an
+# Builds the libFuzzer targets (scripts/build-sanitized.sh: clang, AddressSanitizer + UBSan) and
+# runs each for a bounded time on its seed corpus (tests/fuzz/corpus, plus small .qt files made by ./build's tools and an
 # RGL file from ../shared/data/rgl-bsdf when those exist). Fails on any crash, leak or sanitizer
 # report. Usage: scripts/fuzz.sh [seconds per target, default BASIS_FUZZ_SECONDS or 60]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-${BASIS_FUZZ_SECONDS:-60}}
-clang=$(command -v clang++ || command -v clang++-14)
-cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER="$clang" \
-  -DBASIS_FUZZ=ON -DBASIS_BUILD_TESTS=OFF -DBASIS_BUILD_TOOLS=OFF >/dev/null
 targets=(fuzz_qt_file fuzz_brdf_spec fuzz_measured fuzz_scene_files)
-cmake --build build-fuzz -j "$(nproc)" --target "${targets[@]}"
+[ -x build-asan/bin/fuzz_scene_files ] || scripts/build-sanitized.sh
+cmake --build build-asan -j "$(nproc)" --target "${targets[@]}"
 
 scratch=$(mktemp -d)
 trap 'rm -rf "$scratch"' EXIT
@@ -36,8 +34,8 @@ fi
 run_target() {
   local target=$1 status=0
   ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-    "build-fuzz/bin/$target" -max_total_time="$seconds" -rss_limit_mb=4096 \
-    -max_len=1048576 -print_final_stats=1 -artifact_prefix="build-fuzz/$target-" \
+    "build-asan/bin/$target" -max_total_time="$seconds" -rss_limit_mb=4096 \
+    -max_len=1048576 -print_final_stats=1 -artifact_prefix="build-asan/$target-" \
     "$scratch/$target" >"$scratch/$target.log" 2>&1 || status=$?
   echo "$status" >"$scratch/$target.status"
 }
@@ -58,7 +56,7 @@ for target in "${targets[@]}"; do
   echo "== $target: $(ls "$scratch/$target" | wc -l) corpus inputs, $runs runs, exit $status"
   if [ "$status" -ne 0 ]; then
     tail -40 "$scratch/$target.log" >&2
-    echo "fuzz: $target failed (exit $status); the input is in build-fuzz/$target-*" >&2
+    echo "fuzz: $target failed (exit $status); the input is in build-asan/$target-*" >&2
     failed=1
   fi
 done

@@ -206,6 +206,7 @@ TEST(Capture2qtCli, InterruptLeavesNoOutput) {
         {"--env-constant", "1,1,1", "--scene", "room.obj", "--sample", "100000", "--res", "64"},
         dir.path(), 500, signal_number);
     EXPECT_EQ(r.status, 130) << r.err;
+    EXPECT_NE(r.err.find("interrupted"), std::string::npos) << r.err;
     EXPECT_EQ(dir.entries(), (std::vector<std::string>{"room.mtl", "room.obj"}));
   }
 }

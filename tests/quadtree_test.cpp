@@ -67,15 +67,17 @@ TEST_P(QuadtreeProperties, ReconstructionWithinToleranceAndIntegralExact) {
 TEST_P(QuadtreeProperties, StoredErrorBoundsEveryTexel) {
   const auto [n, channels] = GetParam();
   for (const auto bound : {ProjectionOptions::Bound::exact, ProjectionOptions::Bound::paper})
-    for (const auto& [name, grid] : test_functions(n, channels, 5)) {
-      const Quadtree tree = project(grid, {.tolerance = 0.05, .bound = bound});
-      for_each_quadrant_deviation(tree.view(), grid, [&](float deviation, float error, float v) {
-        ASSERT_LE(deviation, error + 1e-6f * (v + deviation) + 1e-7f) << name;
-        // The exact bound is the largest deviation itself.
-        if (bound == ProjectionOptions::Bound::exact) {
-          ASSERT_LE(error, deviation + 1e-6f * (v + deviation) + 1e-7f) << name;
-        }
-      });
+    for (const auto& function : test_functions(n, channels, 5)) {
+      const std::string& name = function.name;
+      const Quadtree tree = project(function.grid, {.tolerance = 0.05, .bound = bound});
+      for_each_quadrant_deviation(
+          tree.view(), function.grid, [&](float deviation, float error, float v) {
+            ASSERT_LE(deviation, error + 1e-6f * (v + deviation) + 1e-7f) << name;
+            // The exact bound is the largest deviation itself.
+            if (bound == ProjectionOptions::Bound::exact) {
+              ASSERT_LE(error, deviation + 1e-6f * (v + deviation) + 1e-7f) << name;
+            }
+          });
     }
 }
 

@@ -48,7 +48,8 @@ const Environment& sky() {
       for (int x = 0; x < 512; ++x)
         for (int c = 0; c < 3; ++c)
           image.at(x, y, c) = y < 128 ? 0.3f + 0.2f * c + 0.5f * float(y) / 128 : 0.1f;
-    for (int c = 0; c < 3; ++c) image.at(100, 60, c) = 5e4f;
+    for (int c = 0; c < 3; ++c)
+      image.at(100, 60, c) = 5e4f;
     return Environment(image);
   }();
   return env;
@@ -61,7 +62,8 @@ void BM_Occlusion(benchmark::State& state) {
   std::vector<RayHit> hits(n);
   for (std::size_t i = 0; i < n; ++i) {
     const double x = -8 + 16.0 * ((i * 37) % n) / n, y = -8 + 16.0 * ((i * 91) % n) / n;
-    const double phi = 2 * std::numbers::pi * ((i * 13) % 64) / 64, z = 0.1 + 0.8 * ((i * 7) % 16) / 16;
+    const double phi = 2 * std::numbers::pi * ((i * 13) % 64) / 64,
+                 z = 0.1 + 0.8 * ((i * 7) % 16) / 16;
     const double s = std::sqrt(1 - z * z);
     rays[i] = {Vec3(x, y, 0.8 * std::sin(0.9 * x) * std::cos(0.7 * y) + 1e-3),
                Vec3(s * std::cos(phi), s * std::sin(phi), z)};
@@ -83,20 +85,25 @@ void BM_Capture(benchmark::State& state) {
   sky();
   std::uint64_t index = 0;
   for (auto _ : state) {
-    const Grid g = capture(sky(), &scene(), Vec3(0.5, 0.5, 0.8 * std::sin(0.45) * std::cos(0.35) + 1e-3),
-                           frame, {.resolution = res, .strata = 2}, index++);
+    const Grid g =
+        capture(sky(), &scene(), Vec3(0.5, 0.5, 0.8 * std::sin(0.45) * std::cos(0.35) + 1e-3),
+                frame, {.resolution = res, .strata = 2}, index++);
     benchmark::DoNotOptimize(g.texels.data());
   }
   state.SetItemsProcessed(state.iterations());  // captures per second
   state.counters["rays_per_capture"] = double(res * res * 4);
 }
-BENCHMARK(BM_Capture)->Name("capture/trace_and_filter")->Arg(32)->Arg(64)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Capture)
+    ->Name("capture/trace_and_filter")
+    ->Arg(32)
+    ->Arg(64)
+    ->Unit(benchmark::kMicrosecond);
 
 void BM_CaptureProjection(benchmark::State& state) {
   const int res = int(state.range(0));
-  const Grid g = capture(sky(), &scene(), Vec3(0.5, 0.5, 0.8 * std::sin(0.45) * std::cos(0.35) + 1e-3),
-                         Frame::from_normal(Vec3(0.1, 0.2, 1).normalized()),
-                         {.resolution = res, .strata = 2});
+  const Grid g =
+      capture(sky(), &scene(), Vec3(0.5, 0.5, 0.8 * std::sin(0.45) * std::cos(0.35) + 1e-3),
+              Frame::from_normal(Vec3(0.1, 0.2, 1).normalized()), {.resolution = res, .strata = 2});
   QuadtreeProjector projector;
   Quadtree tree;
   for (auto _ : state) {
@@ -105,7 +112,11 @@ void BM_CaptureProjection(benchmark::State& state) {
   }
   state.counters["nodes"] = tree.node_count();
 }
-BENCHMARK(BM_CaptureProjection)->Name("capture/project")->Arg(32)->Arg(64)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_CaptureProjection)
+    ->Name("capture/project")
+    ->Arg(32)
+    ->Arg(64)
+    ->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 }  // namespace basis::bench

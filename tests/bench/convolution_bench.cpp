@@ -36,24 +36,28 @@ void register_all() {
     for (const std::string brdf : {"lambert", "phong10", "phong100", "phong1000"}) {
       const auto p = make_pair(brdf, n);
       const std::string suffix = "/" + brdf + "/" + std::to_string(n);
-      benchmark::RegisterBenchmark(("convolve/quadtree" + suffix).c_str(), [p](auto& state) {
-        for (auto _ : state)
-          benchmark::DoNotOptimize(convolve_value(p->brdf_tree.view(), p->light_tree.view()));
-        add_counters(state, *p);
-      });
-      benchmark::RegisterBenchmark(("convolve/quadtree_bound" + suffix).c_str(), [p](auto& state) {
-        for (auto _ : state)
-          benchmark::DoNotOptimize(convolve(p->brdf_tree.view(), p->light_tree.view()));
-        add_counters(state, *p);
-      });
-      benchmark::RegisterBenchmark(("convolve/dense_naive" + suffix).c_str(), [p](auto& state) {
-        for (auto _ : state)
-          benchmark::DoNotOptimize(dense_convolve_naive(p->brdf, p->light));
-      });
-      benchmark::RegisterBenchmark(("convolve/dense_simd" + suffix).c_str(), [p](auto& state) {
-        for (auto _ : state)
-          benchmark::DoNotOptimize(dense_convolve_simd(p->brdf, p->light));
-      });
+      benchmark::RegisterBenchmark(
+          ("convolve/quadtree" + suffix).c_str(), [p](benchmark::State& state) {
+            for (auto _ : state)
+              benchmark::DoNotOptimize(convolve_value(p->brdf_tree.view(), p->light_tree.view()));
+            add_counters(state, *p);
+          });
+      benchmark::RegisterBenchmark(
+          ("convolve/quadtree_bound" + suffix).c_str(), [p](benchmark::State& state) {
+            for (auto _ : state)
+              benchmark::DoNotOptimize(convolve(p->brdf_tree.view(), p->light_tree.view()));
+            add_counters(state, *p);
+          });
+      benchmark::RegisterBenchmark(
+          ("convolve/dense_naive" + suffix).c_str(), [p](benchmark::State& state) {
+            for (auto _ : state)
+              benchmark::DoNotOptimize(dense_convolve_naive(p->brdf, p->light));
+          });
+      benchmark::RegisterBenchmark(
+          ("convolve/dense_simd" + suffix).c_str(), [p](benchmark::State& state) {
+            for (auto _ : state)
+              benchmark::DoNotOptimize(dense_convolve_simd(p->brdf, p->light));
+          });
     }
     auto light = std::make_shared<const Grid>(sky_grid(n));
     // Projection with the default exact bound and with the paper's bound.
@@ -61,15 +65,16 @@ void register_all() {
       const std::string name = bound == ProjectionOptions::Bound::exact
                                    ? "project/quadtree/"
                                    : "project/quadtree_paper_bound/";
-      benchmark::RegisterBenchmark((name + std::to_string(n)).c_str(), [light, bound](auto& state) {
-        QuadtreeProjector projector;
-        Quadtree tree;
-        for (auto _ : state) {
-          projector.project(*light, {.tolerance = 0.05, .bound = bound}, tree);
-          benchmark::DoNotOptimize(tree.nodes.data());
-        }
-        state.counters["nodes"] = tree.node_count();
-      });
+      benchmark::RegisterBenchmark(
+          (name + std::to_string(n)).c_str(), [light, bound](benchmark::State& state) {
+            QuadtreeProjector projector;
+            Quadtree tree;
+            for (auto _ : state) {
+              projector.project(*light, {.tolerance = 0.05, .bound = bound}, tree);
+              benchmark::DoNotOptimize(tree.nodes.data());
+            }
+            state.counters["nodes"] = tree.node_count();
+          });
     }
   }
 }

@@ -35,8 +35,17 @@ inline std::string slurp(const std::filesystem::path& path) {
   return s.str();
 }
 
-// Runs a tool; when interrupt_after_ms >= 0, sends it `signal_number` (SIGINT by default) after
-// that many milliseconds.
+// The number of threads of a running process (Linux), or 0 once it is gone.
+inline int thread_count(pid_t pid) {
+  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+  for (std::string line; std::getline(status, line);)
+    if (line.rfind("Threads:", 0) == 0) return std::stoi(line.substr(8));
+  return 0;
+}
+
+// Runs a tool; when interrupt_after_ms >= 0, sends it `signal_number` (SIGINT by default) that
+// many milliseconds after it starts its first worker thread (by then its signal handlers are in
+// place and it is at work, however slowly it started, as under the sanitizers), or after 60 s.
 inline ToolResult run_tool(const std::string& tool, const std::vector<std::string>& args,
                            const std::string& working_directory = "", int interrupt_after_ms = -1,
                            int signal_number = SIGINT) {
@@ -64,6 +73,8 @@ inline ToolResult run_tool(const std::string& tool, const std::vector<std::strin
   if (posix_spawn(&pid, exe.c_str(), &actions, nullptr, argv.data(), environ) == 0) {
     int status = 0;
     if (interrupt_after_ms >= 0) {
+      for (int waited = 0; waited < 60000 && thread_count(pid) == 1; waited += 5)
+        ::usleep(5000);
       ::usleep(useconds_t(interrupt_after_ms) * 1000);
       ::kill(pid, signal_number);
     }

@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# The sanitizer build in ./build-asan: clang, AddressSanitizer + UndefinedBehaviorSanitizer on
+# everything, and the libFuzzer targets (the readers carry fuzzer coverage). The tests run
+# from it (scripts/test.sh) and so do the fuzz targets (scripts/fuzz.sh).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+clang=$(command -v clang++ || command -v clang++-14 || true)
+if [ -z "$clang" ]; then
+  scripts/setup.sh build >/dev/null  # installs clang, among the rest
+  clang=$(command -v clang++ || command -v clang++-14)
+fi
+scripts/setup.sh build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER="$clang" \
+  -DBASIS_SANITIZE=ON -DBASIS_FUZZ=ON
