@@ -7,7 +7,7 @@ cd "$(dirname "$0")/.."
 
 packages=(
   build-essential cmake ninja-build pkg-config bc
-  clang libclang-rt-dev
+  clang libclang-rt-dev clang-format
   libopenexr-dev libopenimageio-dev openimageio-tools
   libeigen3-dev libcli11-dev libembree-dev libtbb-dev
   libflatbuffers-dev flatbuffers-compiler

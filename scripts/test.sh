@@ -1,12 +1,17 @@
 #!/usr/bin/env bash
-# Set-up, Release build and the whole test suite; then the same suite under AddressSanitizer and
-# UndefinedBehaviorSanitizer (a clang build that also holds the fuzz targets); then every fuzz
-# target for a bounded time (BASIS_FUZZ_SECONDS, default 60). Skip the second or third pass locally with BASIS_SKIP_SANITIZERS=1 or
+# Set-up, Release build, a check that the sources follow .clang-format, and the whole test suite;
+# then the same suite under AddressSanitizer and UndefinedBehaviorSanitizer (a clang build that
+# also holds the fuzz targets); then every fuzz target for a bounded time (BASIS_FUZZ_SECONDS,
+# default 30). Skip the second or third pass locally with BASIS_SKIP_SANITIZERS=1 or
 # BASIS_SKIP_FUZZ=1.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 scripts/setup.sh build
+if git rev-parse --is-inside-work-tree >/dev/null 2>&1; then
+  git ls-files -z '*.cpp' '*.h' | xargs -0 clang-format --dry-run -Werror
+  echo "test.sh: the sources follow .clang-format"
+fi
 ctest --test-dir build --output-on-failure -j "$(nproc)"
 echo "test.sh: Release build and tests passed after ${SECONDS} s"
 

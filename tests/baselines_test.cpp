@@ -30,12 +30,13 @@ std::vector<double> sphere_gram(int count, F values) {
       const double ring = weight * (knots[k + 1] - knots[k]) / 2 * std::sin(theta);
       for (int j = 0; j < 64; ++j) {
         const double phi = 2 * std::numbers::pi * (j + 0.5) / 64;
-        values(Vec3(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi),
-                    std::cos(theta)),
-               v);
+        values(
+            Vec3(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)),
+            v);
         const double w = ring * 2 * std::numbers::pi / 64;
         for (int a = 0; a < count; ++a)
-          for (int b = 0; b < count; ++b) gram[std::size_t(a) * count + b] += w * v[a] * v[b];
+          for (int b = 0; b < count; ++b)
+            gram[std::size_t(a) * count + b] += w * v[a] * v[b];
       }
     }
   return gram;
@@ -43,9 +44,8 @@ std::vector<double> sphere_gram(int count, F values) {
 
 TEST(SphericalHarmonics, AreOrthonormal) {
   const int order = 8, count = sh_count(order);
-  const auto gram = sphere_gram(count, [&](const Vec3& w, std::vector<double>& v) {
-    sh_evaluate(order, w, v);
-  });
+  const auto gram =
+      sphere_gram(count, [&](const Vec3& w, std::vector<double>& v) { sh_evaluate(order, w, v); });
   for (int a = 0; a < count; ++a)
     for (int b = 0; b < count; ++b)
       EXPECT_NEAR(gram[std::size_t(a) * count + b], a == b ? 1.0 : 0.0, 1e-9) << a << " " << b;
@@ -54,8 +54,10 @@ TEST(SphericalHarmonics, AreOrthonormal) {
 TEST(SphericalHarmonics, DotProductConvergesToTheHemisphereIntegral) {
   // A white Lambert transfer (cos / pi over the upper hemisphere) against a unit sky gives 1.
   Grid lambert(128, 1), sky(128, 1);
-  for (float& t : lambert.texels) t = float(1 / std::numbers::pi);
-  for (float& t : sky.texels) t = 1;
+  for (float& t : lambert.texels)
+    t = float(1 / std::numbers::pi);
+  for (float& t : sky.texels)
+    t = 1;
   double previous = 1;
   for (int order : {2, 4, 8, 16}) {
     const auto transfer = sh_project(lambert, order, true);
@@ -83,15 +85,18 @@ TEST(SphericalHarmonics, RotationMatchesProjectingTheRotatedFunction) {
                                gram.begin() + std::ptrdiff_t(count) * (count + 1) + count);
   };
   const std::vector<double> original = project_sphere(f);
-  const std::vector<double> expected = project_sphere([&](const Vec3& w) { return f(r.transpose() * w); });
+  const std::vector<double> expected =
+      project_sphere([&](const Vec3& w) { return f(r.transpose() * w); });
   const std::vector<double> m = sh_rotation(order, r);
   const std::vector<double> rotated = sh_rotate(original, 1, order, m);
-  for (int i = 0; i < count; ++i) EXPECT_NEAR(rotated[i], expected[i], 1e-6) << i;
+  for (int i = 0; i < count; ++i)
+    EXPECT_NEAR(rotated[i], expected[i], 1e-6) << i;
   // The matrix is orthogonal.
   for (int i = 0; i < count; ++i)
     for (int j = 0; j < count; ++j) {
       double dot = 0;
-      for (int k = 0; k < count; ++k) dot += m[i * count + k] * m[j * count + k];
+      for (int k = 0; k < count; ++k)
+        dot += m[i * count + k] * m[j * count + k];
       EXPECT_NEAR(dot, i == j ? 1 : 0, 1e-9);
     }
 }
@@ -99,13 +104,16 @@ TEST(SphericalHarmonics, RotationMatchesProjectingTheRotatedFunction) {
 TEST(Haar, KeepingEverythingIsExactAndFewerCoefficientsConverge) {
   const auto fa = testing::test_functions(32, 3, 21), fb = testing::test_functions(32, 1, 22);
   for (std::size_t i = 0; i < fa.size(); ++i) {
-    const HaarApproximation a = haar_project(fa[i].grid, 1 << 20), b = haar_project(fb[i].grid, 1 << 20);
+    const HaarApproximation a = haar_project(fa[i].grid, 1 << 20),
+                            b = haar_project(fb[i].grid, 1 << 20);
     const auto exact = dense_convolve_naive(fa[i].grid, fb[i].grid);
     const auto dot = haar_dot(a, b);
-    for (int c = 0; c < 3; ++c) EXPECT_NEAR(dot[c], exact[c], 1e-5 * std::abs(exact[c]) + 1e-9);
+    for (int c = 0; c < 3; ++c)
+      EXPECT_NEAR(dot[c], exact[c], 1e-5 * std::abs(exact[c]) + 1e-9);
     const Grid back = haar_reconstruct(a);
     for (std::size_t t = 0; t < back.texels.size(); ++t)
-      ASSERT_NEAR(back.texels[t], fa[i].grid.texels[t], 1e-3 * std::abs(fa[i].grid.texels[t]) + 1e-4);
+      ASSERT_NEAR(back.texels[t], fa[i].grid.texels[t],
+                  1e-3 * std::abs(fa[i].grid.texels[t]) + 1e-4);
     EXPECT_EQ(a.bytes(), 3u * 32 * 32 * 8);
   }
   // Non-linear approximation: the error of the reconstruction shrinks as K grows.
@@ -125,7 +133,8 @@ TEST(Comparison, DownsamplingKeepsTheIntegral) {
   const Grid g = testing::test_functions(64, 3, 4)[5].grid;  // the spike
   for (int n : {32, 8, 2}) {
     const Grid d = downsample(g, n);
-    for (int c = 0; c < 3; ++c) EXPECT_NEAR(d.mean(0, c), g.mean(0, c), 1e-4 * g.mean(0, c));
+    for (int c = 0; c < 3; ++c)
+      EXPECT_NEAR(d.mean(0, c), g.mean(0, c), 1e-4 * g.mean(0, c));
   }
 }
 

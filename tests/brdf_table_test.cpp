@@ -17,7 +17,8 @@ Vec3 outgoing(double theta_degrees, double phi_degrees) {
 
 Quadtree constant_radiance() {
   Grid g(2, 1);
-  for (float& t : g.texels) t = 1;
+  for (float& t : g.texels)
+    t = 1;
   return project(g);
 }
 

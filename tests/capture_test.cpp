@@ -35,15 +35,16 @@ TEST(Capture, ConstantLightGivesTheConstantThroughAWhiteLambertTable) {
   const Environment env = Environment::constant({0.7, 1.3, 2.0});
   for (int res : {8, 16, 32, 64, 128})
     for (const Vec3& n : normals()) {
-      const Rgb lo = white_lambert(capture(env, nullptr, Vec3(1, 2, 3), Frame::from_normal(n),
-                                           {.resolution = res}));
+      const Rgb lo = white_lambert(
+          capture(env, nullptr, Vec3(1, 2, 3), Frame::from_normal(n), {.resolution = res}));
       EXPECT_NEAR(lo[0], 0.7, 0.005 * 0.7) << res;
       EXPECT_NEAR(lo[1], 1.3, 0.005 * 1.3) << res;
       EXPECT_NEAR(lo[2], 2.0, 0.005 * 2.0) << res;
     }
   // A constant lat-long image too (summed-area filtering keeps constants exact).
   Image flat(64, 32, 3);
-  for (float& p : flat.pixels) p = 0.5f;
+  for (float& p : flat.pixels)
+    p = 0.5f;
   const Rgb lo = white_lambert(capture(Environment(flat), nullptr, Vec3::Zero(),
                                        Frame::from_normal(normals()[2]), {.resolution = 32}));
   EXPECT_NEAR(lo[1], 0.5, 0.0025);
@@ -53,12 +54,13 @@ void check_against_map(const std::string& name, const Environment& env) {
   double worst = 0;
   for (const Vec3& n : normals()) {
     const Color e = env.irradiance(n);  // direct integration over the map's pixels
-    const Rgb lo = white_lambert(capture(env, nullptr, Vec3::Zero(), Frame::from_normal(n),
-                                         {.resolution = 64}));
+    const Rgb lo = white_lambert(
+        capture(env, nullptr, Vec3::Zero(), Frame::from_normal(n), {.resolution = 64}));
     for (int c = 0; c < 3; ++c) {
       EXPECT_NEAR(lo[c], e[c] / std::numbers::pi, 0.01 * e[c] / std::numbers::pi)
           << name << " normal " << n.transpose() << " channel " << c;
-      worst = std::max(worst, std::abs(lo[c] - e[c] / std::numbers::pi) / (e[c] / std::numbers::pi));
+      worst =
+          std::max(worst, std::abs(lo[c] - e[c] / std::numbers::pi) / (e[c] / std::numbers::pi));
     }
   }
   std::printf("[  LAMBERT ] %s: largest relative error %.4f\n", name.c_str(), worst);
@@ -86,14 +88,15 @@ TEST(Capture, AWallHidingHalfTheHemisphereHalvesTheLight) {
   const Environment env = Environment::constant({1, 1, 1});
   for (int res : {16, 64})
     for (int spp : {1, 2}) {
-      const Rgb lo = white_lambert(capture(env, &scene, Vec3::Zero(), Frame::from_normal(Vec3::UnitZ()),
-                                           {.resolution = res, .strata = spp}));
+      const Rgb lo =
+          white_lambert(capture(env, &scene, Vec3::Zero(), Frame::from_normal(Vec3::UnitZ()),
+                                {.resolution = res, .strata = spp}));
       EXPECT_NEAR(lo[0], 0.5, 0.005) << res;
     }
   // Facing the wall's side at 45 degrees: the wall covers the directions with x < 0.
   const Vec3 n = Vec3(1, 0, 1).normalized();
-  const Rgb lo = white_lambert(capture(env, &scene, Vec3::Zero(), Frame::from_normal(n),
-                                       {.resolution = 64}));
+  const Rgb lo =
+      white_lambert(capture(env, &scene, Vec3::Zero(), Frame::from_normal(n), {.resolution = 64}));
   // Cosine-weighted fraction of the hemisphere of n with x >= 0: (1 + sin 45) / 2.
   EXPECT_NEAR(lo[0], (1 + std::sqrt(0.5)) / 2, 0.01);
 }
@@ -115,7 +118,8 @@ TEST(Capture, EmittersShineTheirEmission) {
 TEST(Capture, ASunSmallerThanATexelKeepsItsEnergy) {
   Image dark(256, 128, 3);
   const int row = 40, column = 57;
-  for (int c = 0; c < 3; ++c) dark.at(column, row, c) = 1e5f;
+  for (int c = 0; c < 3; ++c)
+    dark.at(column, row, c) = 1e5f;
   const Environment env(dark);
   const Vec3 n = Vec3(0.2, 0.1, 1).normalized();
   const Color expected = env.irradiance(n);  // 1e5 x solid angle x cosine, by the map's pixels
@@ -127,7 +131,8 @@ TEST(Capture, ASunSmallerThanATexelKeepsItsEnergy) {
     // The sun stays where it is: a texel or its neighbours hold 99.9 % of the energy.
     const double total = g.mean(0, 0) * res * res;
     int lit = 0;
-    for (float t : g.plane(0, 0)) lit += t > 1e-3 * total;
+    for (float t : g.plane(0, 0))
+      lit += t > 1e-3 * total;
     EXPECT_LE(lit, 4) << res;
   }
 }
@@ -157,9 +162,10 @@ TEST(Capture, EnvironmentRepairsNonFiniteAndNegativeTexels) {
   EXPECT_EQ(env.repairs().nan, 1);
   EXPECT_EQ(env.repairs().infinite, 2);
   EXPECT_EQ(env.repairs().negative, 1);
-  const Grid g = capture(env, nullptr, Vec3::Zero(), Frame::from_normal(Vec3::UnitZ()),
-                         {.resolution = 16});
-  for (float t : g.texels) ASSERT_TRUE(std::isfinite(t) && t >= 0);
+  const Grid g =
+      capture(env, nullptr, Vec3::Zero(), Frame::from_normal(Vec3::UnitZ()), {.resolution = 16});
+  for (float t : g.texels)
+    ASSERT_TRUE(std::isfinite(t) && t >= 0);
 }
 
 }  // namespace

@@ -32,13 +32,16 @@ TEST(FailureModes, SphericalHarmonicsGoNegativeOnASharpLobeQuadtreesNever) {
       const Vec3 w = square_to_cosine_hemisphere({(i + 0.5) / 256, (j + 0.5) / 256});
       sh_evaluate(order, w, y);
       double value = 0;
-      for (int k = 0; k < count; ++k) value += transfer[k] * y[k];
+      for (int k = 0; k < count; ++k)
+        value += transfer[k] * y[k];
       const double dw = std::numbers::pi / (256.0 * 256) / std::max(w.z(), 1e-6);
       (value < 0 ? negative : positive) += value * dw;
       most_negative = std::min(most_negative, value);
     }
-  std::printf("[  RINGING ] SH order 16 of Phong 1000: negative mass %.4f of positive %.4f, "
-              "lowest value %.3f\n", negative, positive, most_negative);
+  std::printf(
+      "[  RINGING ] SH order 16 of Phong 1000: negative mass %.4f of positive %.4f, "
+      "lowest value %.3f\n",
+      negative, positive, most_negative);
   EXPECT_LT(negative, -0.01 * positive);  // SH rings and goes negative
   for (double tolerance : {0.0, 0.05, 0.5}) {
     const Grid back = reconstruct(project(lobe, {.tolerance = tolerance}).view());
@@ -48,7 +51,8 @@ TEST(FailureModes, SphericalHarmonicsGoNegativeOnASharpLobeQuadtreesNever) {
 
 Quadtree constant_light() {
   Grid g(2, 1);
-  for (float& t : g.texels) t = 1;
+  for (float& t : g.texels)
+    t = 1;
   return project(g);
 }
 
@@ -71,7 +75,8 @@ TEST(FailureModes, GrazingOutgoingDirections) {
       BrdfTableOptions slice;
       slice.wi_resolution = 128;
       Grid sky(128, 1);
-      for (float& v : sky.texels) v = 1;
+      for (float& v : sky.texels)
+        v = 1;
       const double sh = sh_dot(sh_project(tabulate_entry(brdf, wo, slice), 16, true), 1,
                                sh_project(sky, 16, false), 1, 16)[1];
       std::printf("[  GRAZING ] %s at %.0f deg: albedo %.4f; quadtree error %.4f, SH 16 %.4f\n",
@@ -88,10 +93,10 @@ TEST(FailureModes, GrazingOutgoingDirections) {
 // product; the quadtree within its certified bound.
 TEST(FailureModes, DiagonalStepsAndASubTexelSunOfHdrValues) {
   const int n = 128;
-  Grid light = testing::sample_grid(n, 3, [](double u, double v, int c) {
-    return (u > v ? 2.0 : 0.2) + 0.1 * c;
-  });
-  for (int c = 0; c < 3; ++c) light.at(0, c, 77, 40) = 1e5f;  // a sun much smaller than the map
+  Grid light = testing::sample_grid(
+      n, 3, [](double u, double v, int c) { return (u > v ? 2.0 : 0.2) + 0.1 * c; });
+  for (int c = 0; c < 3; ++c)
+    light.at(0, c, 77, 40) = 1e5f;  // a sun much smaller than the map
   BrdfTableOptions o;
   o.wi_resolution = n;
   const Vec3 wo = Vec3(0.3, 0.2, 0.93).normalized();
@@ -104,8 +109,8 @@ TEST(FailureModes, DiagonalStepsAndASubTexelSunOfHdrValues) {
     for (int c = 0; c < 3; ++c)
       EXPECT_LE(std::abs(q.value[c] - exact[c]), q.bound[c] + 1e-5 * exact[c]) << tolerance;
     std::printf("[  STEPS   ] quadtree %.2f: error %.5f (bound %.5f), %d + %d nodes\n", tolerance,
-                std::abs(q.value[1] - exact[1]) / exact[1], q.bound[1] / exact[1],
-                a.node_count(), b.node_count());
+                std::abs(q.value[1] - exact[1]) / exact[1], q.bound[1] / exact[1], a.node_count(),
+                b.node_count());
   }
   const auto sh = sh_dot(sh_project(brdf, 16, true), 1, sh_project(light, 16, false), 3, 16);
   const auto haar = haar_dot(haar_project(brdf, 1024), haar_project(light, 1024));

@@ -56,8 +56,10 @@ BrdfTable sample_table(int m) {
     std::mt19937 rng(k);
     std::uniform_real_distribution<float> unit(0, 1);
     Grid g(16, 1, 1), d(16, 1, 2);
-    for (float& v : g.texels) v = unit(rng) * (k % 3 == 0 ? 0.01f : 1.0f);
-    for (float& v : d.texels) v = unit(rng) - 0.5f;
+    for (float& v : g.texels)
+      v = unit(rng) * (k % 3 == 0 ? 0.01f : 1.0f);
+    for (float& v : d.texels)
+      v = unit(rng) - 0.5f;
     t.trees.append(project(g, {.tolerance = 0.1}).view());
     t.tilt.append(project(d, {.tolerance = 0.1}).view());
   }

@@ -511,7 +511,8 @@ TEST(RglBrdf, TabulatedAlbedoMatchesTheFilesOwnSampler) {
       const Quadtree entry = project(tabulate_entry(spec.brdf, wo, options), options.projection);
       // The square's integral of f L is the hemisphere's integral of f L cos over pi.
       Convolution tabulated = convolve(entry.view(), light.view());
-      for (float& v : tabulated.value) v *= float(kPi);
+      for (float& v : tabulated.value)
+        v *= float(kPi);
       const Albedo sampled = sampled_albedo(rgl, wo, 200, rng);
       for (int c = 0; c < 3; ++c) {
         if (sampled.mean[c] < 0.01) continue;  // near-black channels: relative terms mislead

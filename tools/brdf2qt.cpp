@@ -74,15 +74,14 @@ int main(int argc, char** argv) {
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
-    const nlohmann::ordered_json parameters = {
-        {"wo_res", options.wo_resolution},
-        {"wi_res", options.wi_resolution},
-        {"tolerance", options.projection.tolerance},
-        {"mode", absolute ? "absolute" : "relative"},
-        {"tilt_derivatives", options.tilt_derivatives}};
-    const auto bytes = basis::encode_brdf_table(
-        table.view(), spec.model, spec.text, options.projection,
-        {"brdf2qt", basis::kVersion, parameters.dump(), {spec_path}});
+    const nlohmann::ordered_json parameters = {{"wo_res", options.wo_resolution},
+                                               {"wi_res", options.wi_resolution},
+                                               {"tolerance", options.projection.tolerance},
+                                               {"mode", absolute ? "absolute" : "relative"},
+                                               {"tilt_derivatives", options.tilt_derivatives}};
+    const auto bytes =
+        basis::encode_brdf_table(table.view(), spec.model, spec.text, options.projection,
+                                 {"brdf2qt", basis::kVersion, parameters.dump(), {spec_path}});
     basis::write_qt(output, bytes);
     if (quiet) return;
     const std::size_t nodes = table.trees.view().total_nodes();
@@ -96,11 +95,11 @@ int main(int argc, char** argv) {
                 << "\n";
       return;
     }
-    std::printf("%s: %s, %d x %d entries of %d x %d texels, %zu nodes (%.1f per entry), "
-                "%.2f MiB, %.2f s\n",
-                output.c_str(), spec.model.c_str(), options.wo_resolution,
-                options.wo_resolution, options.wi_resolution, options.wi_resolution, nodes,
-                double(nodes) / double(table.trees.size()), double(bytes.size()) / (1 << 20),
-                seconds);
+    std::printf(
+        "%s: %s, %d x %d entries of %d x %d texels, %zu nodes (%.1f per entry), "
+        "%.2f MiB, %.2f s\n",
+        output.c_str(), spec.model.c_str(), options.wo_resolution, options.wo_resolution,
+        options.wi_resolution, options.wi_resolution, nodes,
+        double(nodes) / double(table.trees.size()), double(bytes.size()) / (1 << 20), seconds);
   });
 }

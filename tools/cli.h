@@ -1,8 +1,8 @@
 // Glue shared by the command-line tools: exit codes, one-line errors, interruption, progress.
 #pragma once
 
-#include <CLI/CLI.hpp>
 #include <tbb/task_arena.h>
+#include <CLI/CLI.hpp>
 
 #include <atomic>
 #include <chrono>

@@ -28,8 +28,9 @@ struct Row {
 // Full-resolution references for a table and captures (untilted): the four entries' texel
 // grids re-tabulated from the stored spec and every capture re-traced from its recipe, then
 // multiplied texel by texel.
-std::vector<basis::Rgb> references(const basis::QtFile& table_file, const basis::QtFile& captures_file,
-                                   const basis::Vec3& wo, const basis::cli::ProgressBar& progress) {
+std::vector<basis::Rgb> references(const basis::QtFile& table_file,
+                                   const basis::QtFile& captures_file, const basis::Vec3& wo,
+                                   const basis::cli::ProgressBar& progress) {
   const basis::BrdfTableView table = table_file.brdf_table();
   const basis::CaptureSetView captures = captures_file.captures();
   const basis::BrdfSpec spec = basis::table_brdf(table_file);
@@ -51,10 +52,10 @@ std::vector<basis::Rgb> references(const basis::QtFile& table_file, const basis:
   options.wi_resolution = table.trees.shape().resolution;
   std::vector<std::pair<double, basis::Grid>> entries;
   for (const basis::TableTap& tap : basis::table_taps(table.wo_resolution, wo))
-    entries.emplace_back(tap.weight,
-                         basis::tabulate_entry(spec.brdf,
-                                               basis::table_outgoing(tap.i, tap.j, options.wo_resolution),
-                                               options));
+    entries.emplace_back(
+        tap.weight,
+        basis::tabulate_entry(spec.brdf, basis::table_outgoing(tap.i, tap.j, options.wo_resolution),
+                              options));
   std::vector<basis::Rgb> out(captures.size());
   for (std::size_t k = 0; k < captures.size(); ++k) {
     progress.control().check();
@@ -65,7 +66,8 @@ std::vector<basis::Rgb> references(const basis::QtFile& table_file, const basis:
     basis::Rgb sum{0, 0, 0};
     for (const auto& [weight, entry] : entries) {
       const basis::Rgb d = basis::dense_convolve_naive(entry, grid);
-      for (int c = 0; c < 3; ++c) sum[c] += float(weight * std::numbers::pi * d[c]);
+      for (int c = 0; c < 3; ++c)
+        sum[c] += float(weight * std::numbers::pi * d[c]);
     }
     out[k] = sum;
     progress.control().report(k + 1, captures.size());
@@ -102,8 +104,9 @@ int main(int argc, char** argv) {
                  "shade as if the surface normal at every point were this world direction: the "
                  "table is re-parametrised and compensated for the tilt (good to about 10 "
                  "degrees, see README); --wo is then in the tilted frame");
-  app.add_option("--tilt", tilt_mode, "tilt handling with --normal: none, reparametrised, "
-                                      "compensated (default)")
+  app.add_option("--tilt", tilt_mode,
+                 "tilt handling with --normal: none, reparametrised, "
+                 "compensated (default)")
       ->check(CLI::IsMember({"none", "reparametrised", "compensated"}));
   app.add_flag("--json", json, "print {\"results\": [{\"index\", \"value\", \"bound\"}, ...]}");
   app.add_flag("--csv", csv, "print CSV: index,r,g,b,bound_r,bound_g,bound_b[,reference...]");
@@ -144,8 +147,9 @@ int main(int argc, char** argv) {
                                                                   : nullptr;
     const basis::QtFile* other = table == &a ? &b : &a;
     if (table && other->kind() == QtKind::brdf_table)
-      throw basis::FileError(b_path + ": two BRDF tables cannot be convolved; give a table and "
-                                      "captures");
+      throw basis::FileError(b_path +
+                             ": two BRDF tables cannot be convolved; give a table and "
+                             "captures");
     if (!table && (!normal_text.empty() || wo_text != "0,0,1"))
       throw UsageError("--wo and --normal apply to a BRDF table and captures");
     if (reference && (!table || other->kind() != QtKind::capture_set || shading.normal))
@@ -162,8 +166,8 @@ int main(int argc, char** argv) {
     }
 
     // One evaluation of everything: the convolutions the user asked for.
-    const std::size_t count = table ? other->trees().size()
-                                    : std::max(a.trees().size(), b.trees().size());
+    const std::size_t count =
+        table ? other->trees().size() : std::max(a.trees().size(), b.trees().size());
     auto evaluate = [&](std::size_t k) -> basis::Convolution {
       if (table) {
         if (other->kind() == QtKind::capture_set)
@@ -179,7 +183,8 @@ int main(int argc, char** argv) {
       return c;
     };
     std::vector<Row> rows(count);
-    for (std::size_t k = 0; k < count; ++k) rows[k].result = evaluate(k);
+    for (std::size_t k = 0; k < count; ++k)
+      rows[k].result = evaluate(k);
 
     double ns_per_convolution = -1, ns_per_lookup = -1;
     if (time) {
@@ -190,13 +195,17 @@ int main(int argc, char** argv) {
       while (runs.size() < 5 ||
              std::chrono::steady_clock::now() - begin < std::chrono::milliseconds(200)) {
         const auto t0 = std::chrono::steady_clock::now();
-        for (std::size_t k = 0; k < count; ++k) sink += evaluate(k).value[0];
-        runs.push_back(std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - t0).count());
+        for (std::size_t k = 0; k < count; ++k)
+          sink += evaluate(k).value[0];
+        runs.push_back(
+            std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - t0)
+                .count());
         if (runs.size() > 100000) break;
       }
       std::nth_element(runs.begin(), runs.begin() + runs.size() / 2, runs.end());
       ns_per_lookup = runs[runs.size() / 2] / double(count);
-      const bool compensated = shading.normal && shading.tilt_mode == basis::TiltCompensation::compensated;
+      const bool compensated =
+          shading.normal && shading.tilt_mode == basis::TiltCompensation::compensated;
       ns_per_convolution = table ? ns_per_lookup / (compensated ? 8 : 4) : ns_per_lookup;
       if (sink == -1) std::cerr << "";
     }
@@ -204,17 +213,19 @@ int main(int argc, char** argv) {
     if (reference) {
       const auto arena = basis::cli::thread_arena(threads);
       basis::cli::ProgressBar progress("qtconvolve --reference", quiet || (!json && !csv && false));
-      const auto refs = arena->execute(
-          [&] { return references(*table, *other, shading.wo, progress); });
+      const auto refs =
+          arena->execute([&] { return references(*table, *other, shading.wo, progress); });
       progress.finish();
-      for (std::size_t k = 0; k < count; ++k) rows[k].reference = refs[k];
+      for (std::size_t k = 0; k < count; ++k)
+        rows[k].reference = refs[k];
     }
 
     if (!png.empty()) {
-      const basis::CaptureSetView c = other->kind() == QtKind::capture_set ? other->captures()
-                                                                           : a.captures();
+      const basis::CaptureSetView c =
+          other->kind() == QtKind::capture_set ? other->captures() : a.captures();
       std::vector<std::array<float, 3>> values(count);
-      for (std::size_t k = 0; k < count; ++k) values[k] = rows[k].result.value;
+      for (std::size_t k = 0; k < count; ++k)
+        values[k] = rows[k].result.value;
       basis::write_image(png, basis::draw_points_from_above(c.positions, values, 768));
     }
 
@@ -222,12 +233,12 @@ int main(int argc, char** argv) {
       nlohmann::ordered_json j;
       j["results"] = nlohmann::ordered_json::array();
       for (std::size_t k = 0; k < count; ++k) {
-        nlohmann::ordered_json r = {{"index", k},
-                                    {"value", rows[k].result.value},
-                                    {"bound", rows[k].result.bound}};
+        nlohmann::ordered_json r = {
+            {"index", k}, {"value", rows[k].result.value}, {"bound", rows[k].result.bound}};
         if (rows[k].reference) {
           basis::Rgb d;
-          for (int c = 0; c < 3; ++c) d[c] = rows[k].result.value[c] - (*rows[k].reference)[c];
+          for (int c = 0; c < 3; ++c)
+            d[c] = rows[k].result.value[c] - (*rows[k].reference)[c];
           r["reference"] = *rows[k].reference;
           r["difference"] = d;
         }
@@ -266,8 +277,8 @@ int main(int argc, char** argv) {
                   reference ? "; full-resolution reference; difference" : "");
       for (std::size_t k = 0; k < count; ++k) {
         const auto& r = rows[k].result;
-        std::printf("%zu  %.6g %.6g %.6g  +- %.3g %.3g %.3g", k, r.value[0], r.value[1],
-                    r.value[2], r.bound[0], r.bound[1], r.bound[2]);
+        std::printf("%zu  %.6g %.6g %.6g  +- %.3g %.3g %.3g", k, r.value[0], r.value[1], r.value[2],
+                    r.bound[0], r.bound[1], r.bound[2]);
         if (rows[k].reference) {
           const auto& f = *rows[k].reference;
           std::printf("  ref %.6g %.6g %.6g  diff %.3g %.3g %.3g", f[0], f[1], f[2],

@@ -10,8 +10,9 @@ BrdfSpec table_brdf(const QtFile& table) {
   const std::string spec = table.brdf_spec();
   if (spec.empty()) throw FileError(table.name() + ": the table does not store its BRDF spec");
   const Provenance p = table.provenance();
-  const std::string folder =
-      p.sources.empty() ? std::string() : std::filesystem::path(p.sources[0]).parent_path().string();
+  const std::string folder = p.sources.empty()
+                                 ? std::string()
+                                 : std::filesystem::path(p.sources[0]).parent_path().string();
   return parse_brdf_spec(spec, table.name() + " (stored spec)", folder);
 }
 
@@ -30,7 +31,8 @@ CaptureRecipe capture_recipe(const QtFile& captures) {
     r.options.resolution = j.at("res").get<int>();
     const int spp = j.at("spp").get<int>();
     r.options.strata = 1;
-    while (r.options.strata * r.options.strata < spp) ++r.options.strata;
+    while (r.options.strata * r.options.strata < spp)
+      ++r.options.strata;
     r.options.seed = j.at("seed").get<std::uint64_t>();
     r.options.ray_offset = j.at("ray_offset").get<double>();
     r.rotate_z_degrees = j.at("env_rotate").get<double>();

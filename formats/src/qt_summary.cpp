@@ -55,7 +55,8 @@ ordered_json summarise(const QtFile& file) {
                   {"compression", dense_bytes / tree_bytes}};
   if (file.kind() == QtKind::brdf_table) {
     const BrdfTableView table = file.brdf_table();
-    const double tilt_bytes = double(table.tilt.nodes().size_bytes() + table.tilt.errors().size_bytes());
+    const double tilt_bytes =
+        double(table.tilt.nodes().size_bytes() + table.tilt.errors().size_bytes());
     j["brdf_table"] = {{"wo_resolution", table.wo_resolution},
                        {"model", file.brdf_model()},
                        {"spec", file.brdf_spec()},
@@ -158,12 +159,13 @@ std::string summary_text(const QtFile& file) {
   if (j.contains("brdf_table")) {
     const auto& t = j["brdf_table"];
     if (t["tilt_trees"].get<std::size_t>() > 0) {
-      std::snprintf(line, sizeof line,
-                    "tilt         %zu trees of two tilt derivatives over %d x %d texels, %zu nodes, "
-                    "%s (rotation compensation)\n",
-                    t["tilt_trees"].get<std::size_t>(), t["tilt_resolution"].get<int>(),
-                    t["tilt_resolution"].get<int>(), t["tilt_nodes"].get<std::size_t>(),
-                    bytes_text(t["tilt_bytes"].get<double>()).c_str());
+      std::snprintf(
+          line, sizeof line,
+          "tilt         %zu trees of two tilt derivatives over %d x %d texels, %zu nodes, "
+          "%s (rotation compensation)\n",
+          t["tilt_trees"].get<std::size_t>(), t["tilt_resolution"].get<int>(),
+          t["tilt_resolution"].get<int>(), t["tilt_nodes"].get<std::size_t>(),
+          bytes_text(t["tilt_bytes"].get<double>()).c_str());
       out << line;
     } else {
       out << "tilt         none (no rotation compensation)\n";

@@ -60,7 +60,8 @@ struct Evaluator {
     const double d = a2 / (std::numbers::pi * d_denominator * d_denominator);
     auto g1 = [a2](double z) { return 2 * z / (z + std::sqrt(a2 + (1 - a2) * z * z)); };
     const double g = g1(wi.z()) * g1(wo.z());
-    const double schlick = std::pow(1 - std::clamp(wi.dot(h), 0.0, 1.0), 5);
+    const double x = 1 - std::clamp(wi.dot(h), 0.0, 1.0), x2 = x * x;
+    const double schlick = x2 * x2 * x;  // (1 - wi.h)^5, without the cost of pow
     const double common = d * g / (4 * wi.z() * wo.z());
     Color f;
     for (int c = 0; c < 3; ++c)

@@ -42,7 +42,8 @@ Grid tabulate_entry(const Brdf& brdf, const Vec3& wo, const BrdfTableOptions& op
       grid,
       [&](double u, double v, double* out, bool) {
         const Color f = evaluate(brdf, square_to_cosine_hemisphere({u, v}), wo);
-        for (int c = 0; c < channels; ++c) out[c] = f[c];
+        for (int c = 0; c < channels; ++c)
+          out[c] = f[c];
       },
       options.supersampling, near_mirror(wo, options.wi_resolution));
   return grid;
@@ -60,7 +61,8 @@ Grid tabulate_tilt(const Brdf& brdf, const Vec3& wo, const BrdfTableOptions& opt
         const Vec3 w = square_to_cosine_hemisphere({u, v});
         for (int axis = 0; axis < (all_groups ? 2 : 1); ++axis) {
           const Color d = tilt_derivative(brdf, w, wo, axis, options.derivative_step);
-          for (int c = 0; c < channels; ++c) out[axis * channels + c] = d[c];
+          for (int c = 0; c < channels; ++c)
+            out[axis * channels + c] = d[c];
         }
       },
       sampling, near_mirror(wo, n));
@@ -91,14 +93,14 @@ BrdfTable tabulate_brdf(const Brdf& brdf, const BrdfTableOptions& options,
       // Absolute tolerance for both derivative groups: the scaled tolerance of f, taken from
       // the brightest channel's mean.
       double scale = 0;
-      for (int c = 0; c < base.channels; ++c) scale = std::max(scale, std::abs(base.mean(0, c)));
+      for (int c = 0; c < base.channels; ++c)
+        scale = std::max(scale, std::abs(base.mean(0, c)));
       ProjectionOptions tilt_projection = options.projection;
       tilt_projection.mode = ProjectionOptions::Mode::absolute;
-      tilt_projection.tolerance =
-          options.tilt_tolerance_scale *
-          (options.projection.mode == ProjectionOptions::Mode::relative
-               ? options.projection.tolerance * scale
-               : options.projection.tolerance);
+      tilt_projection.tolerance = options.tilt_tolerance_scale *
+                                  (options.projection.mode == ProjectionOptions::Mode::relative
+                                       ? options.projection.tolerance * scale
+                                       : options.projection.tolerance);
       tilt_projection.max_depth = 0;
       tilt_projection.cut_on_all_groups = true;
       tilt_projection.group_tolerance_scale = 1;
@@ -120,10 +122,12 @@ BrdfTable tabulate_brdf(const Brdf& brdf, const BrdfTableOptions& options,
   table.wo_resolution = m;
   table.model = model_name(brdf);
   table.trees = TreeSet(entries.front().shape);
-  for (const Quadtree& e : entries) table.trees.append(e.view());
+  for (const Quadtree& e : entries)
+    table.trees.append(e.view());
   if (!tilts.empty()) {
     table.tilt = TreeSet(tilts.front().shape);
-    for (const Quadtree& t : tilts) table.tilt.append(t.view());
+    for (const Quadtree& t : tilts)
+      table.tilt.append(t.view());
   }
   return table;
 }
@@ -165,7 +169,8 @@ std::array<TableTap, 4> table_taps(int m, const Vec3& wo) {
 }
 
 Convolution reflect(const BrdfTableView& table, const QuadtreeView& radiance, const Vec3& wo) {
-  return interpolate(table, wo, [&](int i, int j) { return convolve(table.entry(i, j), radiance); });
+  return interpolate(table, wo,
+                     [&](int i, int j) { return convolve(table.entry(i, j), radiance); });
 }
 
 Convolution reflect_tilted(const BrdfTableView& table, const QuadtreeView& radiance,

@@ -9,8 +9,8 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <numbers>
+#include <sstream>
 #include <stdexcept>
 #include <vector>
 
@@ -29,10 +29,14 @@ std::uint64_t mix(std::uint64_t x) {
   return x ^ (x >> 31);
 }
 
-double unit(std::uint64_t x) { return double(mix(x) >> 11) * 0x1.0p-53; }
+double unit(std::uint64_t x) {
+  return double(mix(x) >> 11) * 0x1.0p-53;
+}
 
 // Angle between two unit directions.
-double angle_between(const Vec3& a, const Vec3& b) { return std::atan2(a.cross(b).norm(), a.dot(b)); }
+double angle_between(const Vec3& a, const Vec3& b) {
+  return std::atan2(a.cross(b).norm(), a.dot(b));
+}
 
 }  // namespace
 
@@ -88,7 +92,8 @@ Grid capture(const Environment& environment, const RayScene* scene, const Vec3& 
       Color sum{0, 0, 0};
       for (int s = 0; s < k * k; ++s, ++r) {
         if (hits[r].hit) {
-          for (int c = 0; c < 3; ++c) sum[c] += hits[r].emission[c];
+          for (int c = 0; c < 3; ++c)
+            sum[c] += hits[r].emission[c];
           continue;
         }
         ++counts.escaped;
@@ -98,15 +103,18 @@ Grid capture(const Environment& environment, const RayScene* scene, const Vec3& 
         for (int b = 0; b < mv; ++b)
           for (int a = 0; a < mu; ++a) {
             const std::uint64_t sub = mix(id) + std::uint64_t(b * mu + a);
-            const Vec2 uv = corner + Vec2((a + unit(2 * sub)) / mu, (b + unit(2 * sub + 1)) / mv) *
-                                         stratum;
+            const Vec2 uv =
+                corner + Vec2((a + unit(2 * sub)) / mu, (b + unit(2 * sub + 1)) / mv) * stratum;
             const Color l =
                 environment.smooth_radiance(frame.to_world(square_to_cosine_hemisphere(uv)));
-            for (int c = 0; c < 3; ++c) average[c] += l[c];
+            for (int c = 0; c < 3; ++c)
+              average[c] += l[c];
           }
-        for (int c = 0; c < 3; ++c) sum[c] += average[c] / (mu * mv);
+        for (int c = 0; c < 3; ++c)
+          sum[c] += average[c] / (mu * mv);
       }
-      for (int c = 0; c < 3; ++c) grid.at(0, c, x, y) = float(sum[c] / (k * k));
+      for (int c = 0; c < 3; ++c)
+        grid.at(0, c, x, y) = float(sum[c] / (k * k));
     }
     counts.rays += std::int64_t(n) * k * k;
   }
@@ -127,12 +135,14 @@ Grid capture(const Environment& environment, const RayScene* scene, const Vec3& 
       const double y0 = b.row + double(sy) / s, y1 = b.row + double(sy + 1) / s;
       const double omega = environment.band_solid_angle(y0, y1, 1.0 / s);
       for (int sx = 0; sx < s; ++sx) {
-        const Vec3 l = frame.to_local(environment.direction(b.column + (sx + 0.5) / s, (y0 + y1) / 2));
+        const Vec3 l =
+            frame.to_local(environment.direction(b.column + (sx + 0.5) / s, (y0 + y1) / 2));
         if (l.z() <= 0) continue;
         const Vec2 uv = cosine_hemisphere_to_square(l);
         const int tx = std::min(n - 1, int(uv.x() * n)), ty = std::min(n - 1, int(uv.y() * n));
         const double weight = omega * l.z() / std::numbers::pi / texel_area;
-        deposits.push_back({shadow.size(), std::size_t(ty) * n + tx,
+        deposits.push_back({shadow.size(),
+                            std::size_t(ty) * n + tx,
                             {b.excess[0] * weight, b.excess[1] * weight, b.excess[2] * weight}});
         any = true;
       }
@@ -168,8 +178,7 @@ CaptureSet capture_set(const Environment& environment, const RayScene* scene,
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 1), [&](const auto& range) {
     QuadtreeProjector projector;
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      if (stop.load(std::memory_order_relaxed) || too_large.load(std::memory_order_relaxed))
-        return;
+      if (stop.load(std::memory_order_relaxed) || too_large.load(std::memory_order_relaxed)) return;
       if (control.cancel && control.cancel->load()) {
         stop = true;
         return;
@@ -229,7 +238,8 @@ std::vector<CapturePoint> read_points(const std::string& path) {
     double v[6];
     for (int k = 0; k < 6; ++k) {
       char comma = ',';
-      if (!(fields >> v[k]) || (k < 5 && !(fields >> comma)) || comma != ',' || !std::isfinite(v[k]))
+      if (!(fields >> v[k]) || (k < 5 && !(fields >> comma)) || comma != ',' ||
+          !std::isfinite(v[k]))
         throw FileError(path + ":" + std::to_string(number) +
                         ": expected six finite numbers x,y,z,nx,ny,nz");
     }

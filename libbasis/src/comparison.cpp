@@ -56,7 +56,8 @@ double median_time_ns(const std::function<void()>& kernel, double seconds) {
     const auto start = now();
     double elapsed = 0;
     do {
-      for (int k = 0; k < batch; ++k) kernel();
+      for (int k = 0; k < batch; ++k)
+        kernel();
       calls += batch;
       elapsed = std::chrono::duration<double>(now() - start).count();
     } while (elapsed < seconds);
@@ -78,7 +79,8 @@ Grid downsample(const Grid& grid, int resolution) {
         for (int x = 0; x < resolution; ++x) {
           double sum = 0;
           for (int j = 0; j < f; ++j)
-            for (int i = 0; i < f; ++i) sum += grid.at(g, c, x * f + i, y * f + j);
+            for (int i = 0; i < f; ++i)
+              sum += grid.at(g, c, x * f + i, y * f + j);
           out.at(g, c, x, y) = float(sum / (f * f));
         }
   return out;
@@ -140,7 +142,8 @@ std::vector<ComparisonRow> compare_methods(const ComparisonCase& c, const Compar
     r.project_ns = median_time_ns([&] { keep(sh_project(c.light_grid, order, false)[0]); }, t);
     r.convolve_ns = median_time_ns(
         [&] { keep(sh_dot(transfer, c.brdf_grid.channels, radiance, 3, order)[0]); }, t);
-    r.rel_error = relative_error(sh_dot(transfer, c.brdf_grid.channels, radiance, 3, order), c.truth);
+    r.rel_error =
+        relative_error(sh_dot(transfer, c.brdf_grid.channels, radiance, 3, order), c.truth);
     rows.push_back(r);
   }
   // Haar wavelets, non-linear approximation at the finest texels.
@@ -149,12 +152,12 @@ std::vector<ComparisonRow> compare_methods(const ComparisonCase& c, const Compar
     const HaarApproximation b = haar_project(c.light_grid, kept);
     ComparisonRow r = row("haar", format("%g", double(kept)));
     r.bytes = double(b.bytes());
-    r.project_ns = median_time_ns([&] { keep(double(haar_project(c.light_grid, kept).bytes())); }, t);
+    r.project_ns =
+        median_time_ns([&] { keep(double(haar_project(c.light_grid, kept).bytes())); }, t);
     r.convolve_ns = median_time_ns([&] { keep(haar_dot(a, b)[0]); }, t);
     const auto v = haar_dot(a, b);
-    r.rel_error = relative_error({std::numbers::pi * v[0], std::numbers::pi * v[1],
-                                  std::numbers::pi * v[2]},
-                                 c.truth);
+    r.rel_error = relative_error(
+        {std::numbers::pi * v[0], std::numbers::pi * v[1], std::numbers::pi * v[2]}, c.truth);
     rows.push_back(r);
   }
   return rows;

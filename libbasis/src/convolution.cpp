@@ -334,7 +334,8 @@ GroupConvolution convolve_groups(const QuadtreeView& a, const QuadtreeView& b) {
   auto run = [&]<int G>() {
     float value[G][4] = {};
     dispatch_sse<G, true>(a, b, value, bound);
-    for (int g = 0; g < G; ++g) result.value[g] = to_rgb(value[g], channels);
+    for (int g = 0; g < G; ++g)
+      result.value[g] = to_rgb(value[g], channels);
   };
   switch (a.shape().groups) {
     case 1:

@@ -11,7 +11,9 @@ namespace basis {
 
 namespace {
 
-double luminance(const float* rgb) { return 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2]; }
+double luminance(const float* rgb) {
+  return 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
+}
 
 }  // namespace
 
@@ -39,7 +41,8 @@ Environment::Environment(const Image& latlong, double rotate_z_degrees)
         pixels_[(std::size_t(y) * width_ + x) * 3 + c] = v;
       }
   row_solid_angle_.resize(height_);
-  for (int y = 0; y < height_; ++y) row_solid_angle_[y] = latlong_pixel_solid_angle(y, width_, height_);
+  for (int y = 0; y < height_; ++y)
+    row_solid_angle_[y] = latlong_pixel_solid_angle(y, width_, height_);
 
   // Bright level: 8 x the mean luminance, raised so that at most 0.5 % of pixels exceed it.
   double mean = 0;
@@ -69,7 +72,6 @@ Environment::Environment(const Image& latlong, double rotate_z_degrees)
       }
       bright_.push_back(b);
     }
-
 }
 
 Environment Environment::constant(const Color& radiance) {
@@ -111,7 +113,8 @@ Color Environment::smooth_radiance(const Vec3& w) const {
   const Vec3 map(c * w.x() + s * w.y(), -s * w.x() + c * w.y(), w.z());
   const Vec2 p = direction_to_latlong(map, width_, height_);
   const float* q = &smooth_[(std::size_t(std::clamp(int(p.y()), 0, height_ - 1)) * width_ +
-                            std::clamp(int(p.x()), 0, width_ - 1)) * 3];
+                             std::clamp(int(p.x()), 0, width_ - 1)) *
+                            3];
   return {q[0], q[1], q[2]};
 }
 
@@ -135,7 +138,8 @@ Color Environment::irradiance(const Vec3& n, int subsamples) const {
         for (int sx = 0; sx < subsamples; ++sx) {
           const double cosine = direction(x + (sx + 0.5) * inv, (y0 + y1) / 2).dot(n);
           if (cosine <= 0) continue;
-          for (int c = 0; c < 3; ++c) sum[c] += l[c] * cosine * dw;
+          for (int c = 0; c < 3; ++c)
+            sum[c] += l[c] * cosine * dw;
         }
       }
     }

@@ -16,15 +16,18 @@ void forward(std::vector<double>& p, int n) {
     const int half = size / 2;
     for (int y = 0; y < half; ++y)
       for (int x = 0; x < half; ++x) {
-        const double a = p[std::size_t(2 * y) * n + 2 * x], b = p[std::size_t(2 * y) * n + 2 * x + 1];
-        const double c = p[std::size_t(2 * y + 1) * n + 2 * x], d = p[std::size_t(2 * y + 1) * n + 2 * x + 1];
+        const double a = p[std::size_t(2 * y) * n + 2 * x],
+                     b = p[std::size_t(2 * y) * n + 2 * x + 1];
+        const double c = p[std::size_t(2 * y + 1) * n + 2 * x],
+                     d = p[std::size_t(2 * y + 1) * n + 2 * x + 1];
         t[std::size_t(y) * n + x] = (a + b + c + d) / 2;
         t[std::size_t(y) * n + x + half] = (a - b + c - d) / 2;
         t[std::size_t(y + half) * n + x] = (a + b - c - d) / 2;
         t[std::size_t(y + half) * n + x + half] = (a - b - c + d) / 2;
       }
     for (int y = 0; y < size; ++y)
-      for (int x = 0; x < size; ++x) p[std::size_t(y) * n + x] = t[std::size_t(y) * n + x];
+      for (int x = 0; x < size; ++x)
+        p[std::size_t(y) * n + x] = t[std::size_t(y) * n + x];
   }
 }
 
@@ -35,14 +38,16 @@ void inverse(std::vector<double>& p, int n) {
     for (int y = 0; y < half; ++y)
       for (int x = 0; x < half; ++x) {
         const double s = p[std::size_t(y) * n + x], h = p[std::size_t(y) * n + x + half];
-        const double v = p[std::size_t(y + half) * n + x], g = p[std::size_t(y + half) * n + x + half];
+        const double v = p[std::size_t(y + half) * n + x],
+                     g = p[std::size_t(y + half) * n + x + half];
         t[std::size_t(2 * y) * n + 2 * x] = (s + h + v + g) / 2;
         t[std::size_t(2 * y) * n + 2 * x + 1] = (s - h + v - g) / 2;
         t[std::size_t(2 * y + 1) * n + 2 * x] = (s + h - v - g) / 2;
         t[std::size_t(2 * y + 1) * n + 2 * x + 1] = (s - h - v + g) / 2;
       }
     for (int y = 0; y < size; ++y)
-      for (int x = 0; x < size; ++x) p[std::size_t(y) * n + x] = t[std::size_t(y) * n + x];
+      for (int x = 0; x < size; ++x)
+        p[std::size_t(y) * n + x] = t[std::size_t(y) * n + x];
   }
 }
 
@@ -50,7 +55,8 @@ void inverse(std::vector<double>& p, int n) {
 
 std::size_t HaarApproximation::bytes() const {
   std::size_t count = 0;
-  for (const auto& k : kept) count += k.size();
+  for (const auto& k : kept)
+    count += k.size();
   return count * (sizeof(std::uint32_t) + sizeof(float));
 }
 
@@ -66,15 +72,16 @@ HaarApproximation haar_project(const Grid& grid, std::size_t keep) {
     const auto source = grid.plane(0, c);
     std::copy(source.begin(), source.end(), plane.begin());
     forward(plane, n);
-    for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = i;
+    for (std::uint32_t i = 0; i < order.size(); ++i)
+      order[i] = i;
     const std::size_t count = std::clamp<std::size_t>(keep, 1, plane.size());
     // The scaling coefficient (index 0) first, then the largest magnitudes.
-    std::nth_element(order.begin() + 1, order.begin() + std::ptrdiff_t(count), order.end(),
-                     [&](std::uint32_t a, std::uint32_t b) {
-                       return std::abs(plane[a]) > std::abs(plane[b]);
-                     });
+    std::nth_element(
+        order.begin() + 1, order.begin() + std::ptrdiff_t(count), order.end(),
+        [&](std::uint32_t a, std::uint32_t b) { return std::abs(plane[a]) > std::abs(plane[b]); });
     std::vector<std::pair<std::uint32_t, float>> kept;
-    for (std::size_t i = 0; i < count; ++i) kept.push_back({order[i], float(plane[order[i]])});
+    for (std::size_t i = 0; i < count; ++i)
+      kept.push_back({order[i], float(plane[order[i]])});
     std::sort(kept.begin(), kept.end());
     h.kept.push_back(std::move(kept));
   }
@@ -109,10 +116,12 @@ Grid haar_reconstruct(const HaarApproximation& a) {
   std::vector<double> plane(grid.plane_size());
   for (int c = 0; c < a.channels; ++c) {
     std::fill(plane.begin(), plane.end(), 0.0);
-    for (const auto& [index, value] : a.kept[c]) plane[index] = value;
+    for (const auto& [index, value] : a.kept[c])
+      plane[index] = value;
     inverse(plane, a.resolution);
     auto target = grid.plane(0, c);
-    for (std::size_t i = 0; i < plane.size(); ++i) target[i] = float(plane[i]);
+    for (std::size_t i = 0; i < plane.size(); ++i)
+      target[i] = float(plane[i]);
   }
   return grid;
 }

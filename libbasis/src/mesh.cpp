@@ -4,10 +4,10 @@
 
 #include <algorithm>
 #include <charconv>
-#include <fstream>
-#include <sstream>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 
 namespace basis {
 
@@ -24,11 +24,14 @@ std::uint64_t mix(std::uint64_t x) {
   return x ^ (x >> 31);
 }
 
-double unit(std::uint64_t x) { return double(mix(x) >> 11) * 0x1.0p-53; }
+double unit(std::uint64_t x) {
+  return double(mix(x) >> 11) * 0x1.0p-53;
+}
 
 std::string first_line(const std::string& text) {
   std::string line = text.substr(0, text.find('\n'));
-  while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
+  while (!line.empty() && (line.back() == '\r' || line.back() == ' '))
+    line.pop_back();
   return line;
 }
 
@@ -89,7 +92,8 @@ Vec3 TriangleMesh::normal(std::size_t t) const {
 }
 
 TriangleMesh read_obj(const std::string& path) {
-  if (std::filesystem::is_directory(path)) throw FileError(path + ": is a directory, not an OBJ file");
+  if (std::filesystem::is_directory(path))
+    throw FileError(path + ": is a directory, not an OBJ file");
   if (!std::filesystem::exists(path)) throw FileError(path + ": No such file or directory");
   if (std::filesystem::file_size(path) > kMaxObjBytes)
     throw FileError(path + ": larger than " + std::to_string(kMaxObjBytes >> 30) +
@@ -100,8 +104,9 @@ TriangleMesh read_obj(const std::string& path) {
   config.vertex_color = false;
   tinyobj::ObjReader reader;
   if (!reader.ParseFromFile(path, config))
-    throw FileError(path + ": " + (reader.Error().empty() ? std::string("cannot read OBJ")
-                                                          : first_line(reader.Error())));
+    throw FileError(
+        path + ": " +
+        (reader.Error().empty() ? std::string("cannot read OBJ") : first_line(reader.Error())));
   const tinyobj::attrib_t& attrib = reader.GetAttrib();
   TriangleMesh mesh;
   const std::size_t vertex_count = attrib.vertices.size() / 3;
@@ -135,7 +140,8 @@ TriangleMesh read_obj(const std::string& path) {
       Color emission{0, 0, 0};
       const int material = f < shape.mesh.material_ids.size() ? shape.mesh.material_ids[f] : -1;
       if (material >= 0 && std::size_t(material) < materials.size())
-        for (int c = 0; c < 3; ++c) emission[c] = std::max(0.0f, materials[material].emission[c]);
+        for (int c = 0; c < 3; ++c)
+          emission[c] = std::max(0.0f, materials[material].emission[c]);
       mesh.emission.push_back(emission);
       if (!(mesh.area(mesh.triangles.size() - 1) > 0)) {  // degenerate: drop it
         mesh.triangles.pop_back();
@@ -152,14 +158,14 @@ std::vector<CapturePoint> sample_surface(const TriangleMesh& mesh, std::size_t c
                                          std::uint64_t seed) {
   std::vector<double> cdf(mesh.triangles.size());
   double total = 0;
-  for (std::size_t t = 0; t < cdf.size(); ++t) cdf[t] = total += mesh.area(t);
+  for (std::size_t t = 0; t < cdf.size(); ++t)
+    cdf[t] = total += mesh.area(t);
   std::vector<CapturePoint> points(count);
   const std::uint64_t stream = mix(seed);
   for (std::size_t i = 0; i < count; ++i) {
     const double pick = unit(stream + 3 * i) * total;
-    const std::size_t t =
-        std::min(cdf.size() - 1, std::size_t(std::upper_bound(cdf.begin(), cdf.end(), pick) -
-                                             cdf.begin()));
+    const std::size_t t = std::min(
+        cdf.size() - 1, std::size_t(std::upper_bound(cdf.begin(), cdf.end(), pick) - cdf.begin()));
     // Uniform barycentrics by folding the unit square.
     double a = unit(stream + 3 * i + 1), b = unit(stream + 3 * i + 2);
     if (a + b > 1) {
@@ -167,8 +173,8 @@ std::vector<CapturePoint> sample_surface(const TriangleMesh& mesh, std::size_t c
       b = 1 - b;
     }
     const auto& f = mesh.triangles[t];
-    points[i].position = vertex(mesh, f[0]) * (1 - a - b) + vertex(mesh, f[1]) * a +
-                         vertex(mesh, f[2]) * b;
+    points[i].position =
+        vertex(mesh, f[0]) * (1 - a - b) + vertex(mesh, f[1]) * a + vertex(mesh, f[2]) * b;
     points[i].normal = mesh.normal(t);
   }
   return points;

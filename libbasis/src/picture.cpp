@@ -72,7 +72,8 @@ Image draw_points_from_above(std::span<const std::array<double, 3>> positions,
   if (positions.size() != values.size()) throw std::invalid_argument("one value per point");
   if (size < 16 || size > 8192) throw std::invalid_argument("picture size must be 16..8192");
   Image image(size, size, 3);
-  for (float& p : image.pixels) p = 0.05f;
+  for (float& p : image.pixels)
+    p = 0.05f;
   if (positions.empty()) return image;
   double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY}, mean = 0;
   for (std::size_t i = 0; i < positions.size(); ++i) {
@@ -86,20 +87,24 @@ Image draw_points_from_above(std::span<const std::array<double, 3>> positions,
   const int margin = size / 32;
   const double scale = (size - 2 * margin) / span;
   // Disc radius: points cover about the picture's area between them.
-  const int radius = std::clamp(int(0.6 * (size - 2 * margin) / std::sqrt(double(positions.size()))), 1, size / 8);
+  const int radius =
+      std::clamp(int(0.6 * (size - 2 * margin) / std::sqrt(double(positions.size()))), 1, size / 8);
   std::vector<std::size_t> order(positions.size());
-  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  for (std::size_t i = 0; i < order.size(); ++i)
+    order[i] = i;
   std::sort(order.begin(), order.end(),
             [&](std::size_t a, std::size_t b) { return positions[a][2] < positions[b][2]; });
   for (const std::size_t i : order) {
     const int cx = margin + int((positions[i][0] - lo[0]) * scale);
     const int cy = size - 1 - margin - int((positions[i][1] - lo[1]) * scale);
     float rgb[3];
-    for (int c = 0; c < 3; ++c) rgb[c] = tone_map(values[i][c], float(mean));
+    for (int c = 0; c < 3; ++c)
+      rgb[c] = tone_map(values[i][c], float(mean));
     for (int y = std::max(0, cy - radius); y <= std::min(size - 1, cy + radius); ++y)
       for (int x = std::max(0, cx - radius); x <= std::min(size - 1, cx + radius); ++x)
         if ((x - cx) * (x - cx) + (y - cy) * (y - cy) <= radius * radius)
-          for (int c = 0; c < 3; ++c) image.at(x, y, c) = rgb[c];
+          for (int c = 0; c < 3; ++c)
+            image.at(x, y, c) = rgb[c];
   }
   return image;
 }

@@ -33,7 +33,8 @@ Color reference_reflection(const Environment& environment, const RayScene* scene
     if (scene && !rays.empty()) scene->trace(rays, hits);
     for (std::size_t i = 0; i < rays.size(); ++i) {
       if (hits[i].hit) continue;
-      for (int c = 0; c < 3; ++c) sum[c] += contributions[i][c];
+      for (int c = 0; c < 3; ++c)
+        sum[c] += contributions[i][c];
     }
   }
   return sum;

@@ -5,7 +5,9 @@
 
 namespace basis {
 
-double Tilt::angle() const { return std::hypot(x, y); }
+double Tilt::angle() const {
+  return std::hypot(x, y);
+}
 
 Tilt tilt_to(const Vec3& normal) {
   const Vec3 n = normal.normalized();
@@ -36,7 +38,8 @@ Color tilt_derivative(const Brdf& brdf, const Vec3& w, const Vec3& wo, int axis,
     const Color tilted = evaluate(brdf, rotate_about_tangent_axis(w, axis, -t), wo);
     const Color reparametrised = evaluate(brdf, w, rotate_about_tangent_axis(wo, axis, -t));
     Color out;
-    for (int c = 0; c < 3; ++c) out[c] = tilted[c] * cosine_ratio - reparametrised[c];
+    for (int c = 0; c < 3; ++c)
+      out[c] = tilted[c] * cosine_ratio - reparametrised[c];
     return out;
   };
   const Color plus = b(h), minus = b(-h);

@@ -20,8 +20,10 @@ void sh_evaluate(int order, const Vec3& w, std::span<double> out) {
   std::array<double, kMaxShOrder * kMaxShOrder> p;  // P_l^m at l * order + m
   auto P = [&](int l, int m) -> double& { return p[std::size_t(l) * order + m]; };
   P(0, 0) = 1;
-  for (int m = 1; m < order; ++m) P(m, m) = P(m - 1, m - 1) * (2 * m - 1) * s;
-  for (int m = 0; m + 1 < order; ++m) P(m + 1, m) = (2 * m + 1) * z * P(m, m);
+  for (int m = 1; m < order; ++m)
+    P(m, m) = P(m - 1, m - 1) * (2 * m - 1) * s;
+  for (int m = 0; m + 1 < order; ++m)
+    P(m + 1, m) = (2 * m + 1) * z * P(m, m);
   for (int m = 0; m < order; ++m)
     for (int l = m + 2; l < order; ++l)
       P(l, m) = ((2 * l - 1) * z * P(l - 1, m) - (l + m - 1) * P(l - 2, m)) / (l - m);
@@ -60,7 +62,8 @@ std::vector<double> sh_project(const Grid& grid, int order, bool times_cosine) {
       sh_evaluate(order, w, y);
       for (int c = 0; c < grid.channels; ++c) {
         const double f = grid.at(0, c, tx, ty) * weight;
-        for (int i = 0; i < count; ++i) coefficients[std::size_t(c) * count + i] += f * y[i];
+        for (int i = 0; i < count; ++i)
+          coefficients[std::size_t(c) * count + i] += f * y[i];
       }
     }
   return coefficients;
@@ -74,7 +77,8 @@ std::array<double, 3> sh_dot(std::span<const double> a, int channels_a, std::spa
     const double* pa = a.data() + std::size_t(channels_a == 1 ? 0 : c) * count;
     const double* pb = b.data() + std::size_t(channels_b == 1 ? 0 : c) * count;
     double sum = 0;
-    for (int i = 0; i < count; ++i) sum += pa[i] * pb[i];
+    for (int i = 0; i < count; ++i)
+      sum += pa[i] * pb[i];
     out[c] = sum;
   }
   return out;

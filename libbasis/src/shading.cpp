@@ -6,7 +6,9 @@ namespace basis {
 
 namespace {
 
-Vec3 vec(const Point3& p) { return {p[0], p[1], p[2]}; }
+Vec3 vec(const Point3& p) {
+  return {p[0], p[1], p[2]};
+}
 
 }  // namespace
 

@@ -13,11 +13,12 @@ std::vector<TiltStudyRow> study_tilts(const Environment& environment, const Vec3
                                       const Brdf& brdf, const BrdfTableView& table,
                                       const TiltStudyOptions& o) {
   const Frame record = Frame::from_normal(record_normal.normalized());
-  const Grid grid = capture(environment, nullptr, Vec3::Zero(), record,
-                            {.resolution = o.capture_resolution});
+  const Grid grid =
+      capture(environment, nullptr, Vec3::Zero(), record, {.resolution = o.capture_resolution});
   const Quadtree radiance = project(grid, {.tolerance = o.capture_tolerance});
   std::vector<std::vector<double>> sh_light;
-  for (int order : o.sh_orders) sh_light.push_back(sh_project(grid, order, false));
+  for (int order : o.sh_orders)
+    sh_light.push_back(sh_project(grid, order, false));
   // SH transfers of the BRDF slice at each outgoing direction (exact wo, no table).
   auto outgoing = [](double degrees) {
     const double a = degrees * std::numbers::pi / 180;
@@ -30,7 +31,8 @@ std::vector<TiltStudyRow> study_tilts(const Environment& environment, const Vec3
   for (const double wo_degrees : o.wo_degrees) {
     const Grid slice = tabulate_entry(brdf, outgoing(wo_degrees), slice_options);
     transfers.emplace_back();
-    for (int order : o.sh_orders) transfers.back().push_back(sh_project(slice, order, true));
+    for (int order : o.sh_orders)
+      transfers.back().push_back(sh_project(slice, order, true));
   }
 
   std::vector<TiltStudyRow> rows;
@@ -51,12 +53,13 @@ std::vector<TiltStudyRow> study_tilts(const Environment& environment, const Vec3
         shading.bitangent = record.to_world(r * Vec3::UnitY());
         shading.normal = record.to_world(r * Vec3::UnitZ());
         const Vec3 wo = outgoing(o.wo_degrees[w]);
-        const double exact =
-            reference_reflection(environment, nullptr, Vec3::Zero(), shading, brdf, wo,
-                                 o.reference_subsamples)[1];
+        const double exact = reference_reflection(environment, nullptr, Vec3::Zero(), shading, brdf,
+                                                  wo, o.reference_subsamples)[1];
         for (int m = 0; m < 3; ++m)
-          errors[m] += std::abs(reflect_tilted(table, radiance.view(), wo, tilt, modes[m]).value[1] -
-                                exact) / exact;
+          errors[m] +=
+              std::abs(reflect_tilted(table, radiance.view(), wo, tilt, modes[m]).value[1] -
+                       exact) /
+              exact;
         // SH: the light rotated exactly into the shading frame (L_s(w) = L_record(r w), the
         // coefficients of f(R^-1 w) with R = r^T), against the transfer at wo.
         for (std::size_t k = 0; k < o.sh_orders.size(); ++k) {

@@ -33,17 +33,19 @@ EmbreeScene::EmbreeScene(const TriangleMesh& mesh) : state_(std::make_unique<Sta
   state_->scene = rtcNewScene(state_->device);
   rtcSetSceneBuildQuality(state_->scene, RTC_BUILD_QUALITY_HIGH);
   RTCGeometry geometry = rtcNewGeometry(state_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-  auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
-      geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
-      mesh.vertices.size()));
-  auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
-      geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned),
-      mesh.triangles.size()));
+  auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0,
+                                                               RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                                               mesh.vertices.size()));
+  auto* indices = static_cast<unsigned*>(
+      rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                              3 * sizeof(unsigned), mesh.triangles.size()));
   if (!vertices || !indices) throw_device_error(state_->device, "cannot allocate the mesh");
   for (std::size_t i = 0; i < mesh.vertices.size(); ++i)
-    for (int k = 0; k < 3; ++k) vertices[3 * i + k] = mesh.vertices[i][k];
+    for (int k = 0; k < 3; ++k)
+      vertices[3 * i + k] = mesh.vertices[i][k];
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
-    for (int k = 0; k < 3; ++k) indices[3 * t + k] = mesh.triangles[t][k];
+    for (int k = 0; k < 3; ++k)
+      indices[3 * t + k] = mesh.triangles[t][k];
   rtcCommitGeometry(geometry);
   rtcAttachGeometry(state_->scene, geometry);
   rtcReleaseGeometry(geometry);

@@ -60,8 +60,7 @@ inline Grid sky_grid(int n, double sun_azimuth = 1.0) {
         for (int c = 0; c < 3; ++c)
           out[c] = radiance(w, c);
       },
-      SupersampleOptions{
-          .relative_tolerance = 1e-3, .absolute_floor = 0.1, .max_depth = 3});
+      SupersampleOptions{.relative_tolerance = 1e-3, .absolute_floor = 0.1, .max_depth = 3});
   const double elevation = 40 * std::numbers::pi / 180, azimuth = sun_azimuth;
   const Vec3 sun(std::cos(elevation) * std::cos(azimuth), std::cos(elevation) * std::sin(azimuth),
                  std::sin(elevation));

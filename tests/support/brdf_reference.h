@@ -45,8 +45,9 @@ double integrate_around(const Vec3& centre, G g, int azimuths = 512) {
   const Vec3 a = centre.normalized();
   const Vec3 t = (std::abs(a.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY()).cross(a).normalized();
   const Vec3 b = a.cross(t);
-  const double knots[] = {0, 0.001, 0.003, 0.01, 0.02, 0.04, 0.08, 0.15, 0.3, 0.6,
-                          1.0, 1.5, 2.0, 2.6, std::numbers::pi};
+  const double knots[] = {0,    0.001, 0.003, 0.01, 0.02,
+                          0.04, 0.08,  0.15,  0.3,  0.6,
+                          1.0,  1.5,   2.0,   2.6,  std::numbers::pi};
   double sum = 0;
   for (std::size_t k = 0; k + 1 < std::size(knots); ++k) {
     const double lo = knots[k], hi = knots[k + 1];
@@ -56,8 +57,8 @@ double integrate_around(const Vec3& centre, G g, int azimuths = 512) {
       double around = 0;
       for (int j = 0; j < azimuths; ++j) {
         const double phi = 2 * std::numbers::pi * (j + 0.5) / azimuths;
-        const Vec3 w = a * std::cos(theta) +
-                       (t * std::cos(phi) + b * std::sin(phi)) * std::sin(theta);
+        const Vec3 w =
+            a * std::cos(theta) + (t * std::cos(phi) + b * std::sin(phi)) * std::sin(theta);
         around += g(w);
       }
       sum += ring * around * 2 * std::numbers::pi / azimuths;

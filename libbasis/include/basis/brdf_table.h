@@ -48,10 +48,10 @@ inline constexpr double kTableMaxOutgoingDegrees = 89.0;
 Vec3 table_outgoing(int i, int j, int wo_resolution);
 
 struct BrdfTableOptions {
-  int wo_resolution = 33;  // M, entries per side of the parabolic grid (2..256)
+  int wo_resolution = 33;   // M, entries per side of the parabolic grid (2..256)
   int wi_resolution = 128;  // N, texels per side of each entry (power of two, 2..512)
   ProjectionOptions projection;
-  bool tilt_derivatives = true;  // also tabulate the tilt derivatives (rotation compensation)
+  bool tilt_derivatives = true;   // also tabulate the tilt derivatives (rotation compensation)
   double derivative_step = 1e-3;  // radians, central differences of tilt_derivative
   // The tilt trees are refined where their bound exceeds this multiple of the entry's own
   // tolerance: their contribution is scaled by the tilt (0.1 rad is 5.7 degrees).

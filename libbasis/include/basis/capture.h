@@ -55,8 +55,8 @@ struct CaptureStats {
 // jittered point; an escaping ray contributes the environment's smooth part averaged over the
 // stratum's footprint, a hit its surface's emission. Each bright environment pixel is split
 // into bright_subsamples^2 pieces whose energy goes exactly into the texel each falls in, if a
-// shadow ray towards the pixel's centre escapes. With no scene nothing occludes. `index` decorrelates jitter
-// between points. Deterministic.
+// shadow ray towards the pixel's centre escapes. With no scene nothing occludes. `index`
+// decorrelates jitter between points. Deterministic.
 Grid capture(const Environment& environment, const RayScene* scene, const Vec3& position,
              const Frame& frame, const CaptureOptions& options, std::uint64_t index = 0,
              CaptureStats* stats = nullptr);

@@ -30,7 +30,7 @@ struct ComparisonRow {
   double bytes = 0;       // storage of the light's representation
   double project_ns = 0;  // projecting the light from its finest texels
   double convolve_ns = 0;
-  double rel_error = 0;   // |Y(result) - Y(truth)| / Y(truth), Y the luminance
+  double rel_error = 0;  // |Y(result) - Y(truth)| / Y(truth), Y the luminance
 };
 
 struct ComparisonOptions {
@@ -46,7 +46,8 @@ struct ComparisonOptions {
 Grid downsample(const Grid& grid, int resolution);
 
 // Every method at every parameter on one case.
-std::vector<ComparisonRow> compare_methods(const ComparisonCase& c, const ComparisonOptions& options);
+std::vector<ComparisonRow> compare_methods(const ComparisonCase& c,
+                                           const ComparisonOptions& options);
 
 // Median over five runs of the time per call of `kernel`, each run repeating it for about
 // `seconds`, in nanoseconds.

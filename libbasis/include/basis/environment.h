@@ -62,9 +62,9 @@ class Environment {
   Color pixel(int row, int column) const;
 
   int width_ = 0, height_ = 0;
-  double rotation_ = 0;  // radians
-  std::vector<float> pixels_;  // RGB rows, bright excess included
-  std::vector<float> smooth_;  // RGB rows, bright excess removed
+  double rotation_ = 0;                  // radians
+  std::vector<float> pixels_;            // RGB rows, bright excess included
+  std::vector<float> smooth_;            // RGB rows, bright excess removed
   std::vector<double> row_solid_angle_;  // per pixel of each row
   std::vector<BrightPixel> bright_;
   EnvironmentRepairs repairs_;

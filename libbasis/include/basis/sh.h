@@ -15,9 +15,13 @@ namespace basis {
 inline constexpr int kMaxShOrder = 32;
 
 // Number of coefficients of order L (bands 0 .. L-1): L^2.
-inline int sh_count(int order) { return order * order; }
+inline int sh_count(int order) {
+  return order * order;
+}
 // Index of Y_l^m in coefficient arrays: l (l + 1) + m.
-inline int sh_index(int l, int m) { return l * (l + 1) + m; }
+inline int sh_index(int l, int m) {
+  return l * (l + 1) + m;
+}
 
 // Values of every real spherical harmonic of order L (orthonormal over the sphere) at unit w.
 void sh_evaluate(int order, const Vec3& w, std::span<double> out);

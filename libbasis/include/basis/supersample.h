@@ -38,13 +38,18 @@ class CellRefiner {
  public:
   CellRefiner(const F& f, const SupersampleOptions& options, int resolution, int values,
               int checked, const std::vector<double>& floor)
-      : f_(f), o_(options), n_(resolution), values_(values), checked_(checked), floor_(floor),
+      : f_(f),
+        o_(options),
+        n_(resolution),
+        values_(values),
+        checked_(checked),
+        floor_(floor),
         scratch_(std::size_t(options.max_depth + 2) * 10 * values) {}
 
   // Writes into `out` the average over the cell (x0, y0, size, in texel units, at `depth`)
   // whose centre sample is `centre`; returns the evaluations made.
-  long long refine(double x0, double y0, double size, int depth, const double* centre,
-                   bool forced, double* out) const {
+  long long refine(double x0, double y0, double size, int depth, const double* centre, bool forced,
+                   double* out) const {
     // Per depth: four children, their mean, and the running sum of refined children.
     double* children = &scratch_[std::size_t(depth) * 10 * values_];
     double* mean = children + 4 * values_;
@@ -54,14 +59,14 @@ class CellRefiner {
     const double half = size / 2;
     for (int q = 0; q < 4; ++q) {
       double* c = children + q * values_;
-      f_((x0 + (q & 1) * half + half / 2) / n_, (y0 + (q >> 1) * half + half / 2) / n_, c,
-         groups);
+      f_((x0 + (q & 1) * half + half / 2) / n_, (y0 + (q >> 1) * half + half / 2) / n_, c, groups);
       if (!groups) std::copy(centre + checked_, centre + values_, c + checked_);
     }
     long long evaluations = 4;
     for (int k = 0; k < count; ++k)
       mean[k] = (children[k] + children[values_ + k] + children[2 * values_ + k] +
-                 children[3 * values_ + k]) / 4;
+                 children[3 * values_ + k]) /
+                4;
     if (!groups) std::copy(centre + checked_, centre + values_, mean + checked_);
     bool converged = !forced || depth + 1 >= o_.forced_depth;
     for (int k = 0; k < checked_ && converged; ++k)
@@ -77,7 +82,8 @@ class CellRefiner {
     for (int q = 0; q < 4; ++q) {
       evaluations += refine(x0 + (q & 1) * half, y0 + (q >> 1) * half, half, depth + 1,
                             children + q * values_, forced, part);
-      for (int k = 0; k < values_; ++k) sum[k] += part[k] / 4;
+      for (int k = 0; k < values_; ++k)
+        sum[k] += part[k] / 4;
     }
     std::copy(sum, sum + values_, out);
     return evaluations;
@@ -111,7 +117,8 @@ long long average_over_texels(Grid& grid, const F& f, const SupersampleOptions& 
     for (int x = 0; x < n; ++x) {
       double* c = &centres[(std::size_t(y) * n + x) * values];
       f((x + 0.5) / n, (y + 0.5) / n, c, true);
-      for (int k = 0; k < checked; ++k) mean[k] += c[k] / (double(n) * n);
+      for (int k = 0; k < checked; ++k)
+        mean[k] += c[k] / (double(n) * n);
     }
   for (int k = 0; k < checked; ++k)
     floor[k] = std::max(options.absolute_floor, options.floor_fraction_of_mean * std::abs(mean[k]));

@@ -20,7 +20,7 @@ struct TiltStudyRow {
 
 struct TiltStudyOptions {
   std::vector<double> tilts_degrees{0, 1, 2, 3, 5, 7.5, 10, 15, 20, 25, 30};
-  int axes = 6;                            // tilt axes around the normal
+  int axes = 6;                               // tilt axes around the normal
   std::vector<double> wo_degrees{0, 30, 60};  // outgoing directions' angles from the normal
   std::vector<int> sh_orders{8, 16};
   int capture_resolution = 64;
