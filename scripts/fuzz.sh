@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets (scripts/build-sanitized.sh: clang, AddressSanitizer + UBSan) and
-# runs each for a bounded time on its seed corpus (tests/fuzz/corpus, plus small .qt files made by ./build's tools and an
-# RGL file from ../shared/data/rgl-bsdf when those exist). Fails on any crash, leak or sanitizer
-# report. Usage: scripts/fuzz.sh [seconds per target, default BASIS_FUZZ_SECONDS or 30]
+# runs each for a bounded time on its seed corpus (tests/fuzz/corpus, plus small .qt files made
+# by ./build's tools and an RGL file from ../shared/data/rgl-bsdf when those exist). Fails on
+# any crash, leak or sanitizer report.
+# Usage: scripts/fuzz.sh [seconds per target, default BASIS_FUZZ_SECONDS or 30]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-${BASIS_FUZZ_SECONDS:-30}}
