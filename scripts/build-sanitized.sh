@@ -1,16 +1,12 @@
 #!/usr/bin/env bash
-# The sanitizer build in ./build-asan: clang, AddressSanitizer + UndefinedBehaviorSanitizer on
-# everything, and the libFuzzer targets (the readers carry fuzzer coverage). The tests run
-# from it (scripts/test.sh) and so do the fuzz targets (scripts/fuzz.sh).
+# The sanitizer build in ./build-asan, after the set-up (which installs clang): clang,
+# AddressSanitizer + UndefinedBehaviorSanitizer on everything, and the libFuzzer targets (the
+# readers' sources carry fuzzer coverage). The tests run from it (scripts/test.sh) and so do
+# the fuzz targets (scripts/fuzz.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-clang=$(command -v clang++ || command -v clang++-14 || true)
-if [ -z "$clang" ]; then
-  scripts/setup.sh build >/dev/null  # installs clang, among the rest
-  clang=$(command -v clang++ || command -v clang++-14)
-fi
 # Line tables only: reports keep file and line, and the build is faster than with full -g.
 # Benchmarks are not built here: timings under the sanitizers mean nothing.
-scripts/setup.sh build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER="$clang" \
+scripts/setup.sh build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
   -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -gline-tables-only -DNDEBUG" \
   -DBASIS_SANITIZE=ON -DBASIS_FUZZ=ON -DBASIS_BUILD_BENCHMARKS=OFF

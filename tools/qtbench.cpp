@@ -125,7 +125,7 @@ int main(int argc, char** argv) {
                  "lat-long HDR map with a sun (default: the Poly Haven sunrise from Debian's "
                  "blender-data)");
   app.add_option("--measured", measured,
-                 "an RGL EPFL .bsdf file to add as a panel (default: the shared folder's "
+                 "an RGL EPFL .bsdf file to add as a panel (default: ../shared/data/rgl-bsdf's "
                  "satin_rosaline when present)");
   app.add_option("--threads", threads, "worker threads for the preparation (timings run on one)")
       ->check(CLI::Range(1, 1024));

@@ -35,11 +35,13 @@ inline std::string slurp(const std::filesystem::path& path) {
   return s.str();
 }
 
-// The number of threads of a running process (Linux), or 0 once it is gone.
+// The number of threads of a running process (Linux); 0 once it has exited (a zombie) or is gone.
 inline int thread_count(pid_t pid) {
   std::ifstream status("/proc/" + std::to_string(pid) + "/status");
-  for (std::string line; std::getline(status, line);)
+  for (std::string line; std::getline(status, line);) {
+    if (line.rfind("State:", 0) == 0 && line.find('Z') != std::string::npos) return 0;
     if (line.rfind("Threads:", 0) == 0) return std::stoi(line.substr(8));
+  }
   return 0;
 }
 
@@ -73,6 +75,7 @@ inline ToolResult run_tool(const std::string& tool, const std::vector<std::strin
   if (posix_spawn(&pid, exe.c_str(), &actions, nullptr, argv.data(), environ) == 0) {
     int status = 0;
     if (interrupt_after_ms >= 0) {
+      // A tool that exits early is not waited for (its count drops to 0).
       for (int waited = 0; waited < 60000 && thread_count(pid) == 1; waited += 5)
         ::usleep(5000);
       ::usleep(useconds_t(interrupt_after_ms) * 1000);
