@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <numbers>
+#include <vector>
 
 #include "basis/brdf_table.h"
 #include "support/brdf_reference.h"
@@ -48,14 +49,19 @@ class TableAlbedo : public ::testing::TestWithParam<int> {};
 
 TEST_P(TableAlbedo, MatchesNumericIntegration) {
   const ModelCase m = models()[GetParam()];
+  // At 0, 30, 60, 80 degrees, on grid rows and between entries.
+  std::vector<Vec3> directions;
+  for (const double theta : {0.0, 30.0, 60.0, 80.0})
+    for (const double phi : {0.0, 17.0, 45.0, 200.0})
+      directions.push_back(outgoing(theta, phi));
   BrdfTableOptions options;  // default outgoing grid (33 x 33)
   options.wi_resolution = 32;
   options.tilt_derivatives = false;
+  options.only_for = directions;  // the entries these lookups read (PartialTable.*)
   const BrdfTable table = tabulate_brdf(m.brdf, options);
   const Quadtree light = constant_radiance();
   const int channels = channel_count(m.brdf);
   double worst = 0;
-  // At 0, 30, 60, 80 degrees, on grid rows and between entries.
   for (const double theta : {0.0, 30.0, 60.0, 80.0})
     for (const double phi : {0.0, 17.0, 45.0, 200.0}) {
       const Vec3 wo = outgoing(theta, phi);
@@ -68,6 +74,39 @@ TEST_P(TableAlbedo, MatchesNumericIntegration) {
       }
     }
   std::printf("[  ALBEDO  ] %s: largest relative error %.4f\n", m.name.c_str(), worst);
+}
+
+// A partial table (only_for) holds the full table's entries, bit for bit, where lookups at its
+// directions read, and zero trees of the same shape elsewhere.
+TEST(PartialTable, MatchesTheFullTableWhereItsDirectionsRead) {
+  const Brdf brdf = Phong{{0.3, 0.2, 0.1}, {0.5, 0.5, 0.5}, 40};
+  BrdfTableOptions options;
+  options.wo_resolution = 9;
+  options.wi_resolution = 16;
+  const BrdfTable full = tabulate_brdf(brdf, options);
+  const std::vector<Vec3> directions = {outgoing(0, 0), outgoing(35, 70), outgoing(75, 200)};
+  options.only_for = directions;
+  const BrdfTable partial = tabulate_brdf(brdf, options);
+  ASSERT_EQ(partial.trees.size(), full.trees.size());
+  ASSERT_EQ(partial.tilt.size(), full.tilt.size());
+  const Quadtree light = constant_radiance();
+  std::vector<char> read(std::size_t(9 * 9), 0);
+  for (const Vec3& wo : directions) {
+    const Convolution a = reflect(full.view(), light.view(), wo);
+    const Convolution b = reflect(partial.view(), light.view(), wo);
+    EXPECT_EQ(a.value, b.value);
+    EXPECT_EQ(a.bound, b.bound);
+    for (const TableTap& tap : table_taps(9, wo))
+      read[std::size_t(tap.j) * 9 + tap.i] = 1;
+  }
+  int zero = 0;
+  for (std::size_t k = 0; k < read.size(); ++k) {
+    if (read[k]) continue;
+    EXPECT_EQ(partial.trees.view().tree(k).node_count(), 1) << k;
+    EXPECT_EQ(integrate(partial.trees.view().tree(k), 0, 0), 0.0) << k;
+    ++zero;
+  }
+  EXPECT_GT(zero, 60);  // most of the 81 entries were never tabulated
 }
 
 INSTANTIATE_TEST_SUITE_P(Models, TableAlbedo, ::testing::Range(0, int(models().size())),

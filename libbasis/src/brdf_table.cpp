@@ -77,6 +77,10 @@ BrdfTable tabulate_brdf(const Brdf& brdf, const BrdfTableOptions& options,
     throw std::invalid_argument("wi resolution must be a power of two from 2 to 512");
   const std::size_t count = std::size_t(m) * m;
   std::vector<Quadtree> entries(count), tilts(options.tilt_derivatives ? count : 0);
+  std::vector<char> needed(count, options.only_for.empty());
+  for (const Vec3& wo : options.only_for)
+    for (const TableTap& tap : table_taps(m, wo))
+      needed[std::size_t(tap.j) * m + tap.i] = 1;
   std::atomic<std::size_t> done{0}, bytes{0};
   std::atomic<bool> stop{false}, too_large{false};
   control.report(0, count);
@@ -84,6 +88,16 @@ BrdfTable tabulate_brdf(const Brdf& brdf, const BrdfTableOptions& options,
     if (stop.load(std::memory_order_relaxed) || too_large.load(std::memory_order_relaxed)) return;
     if (control.cancel && control.cancel->load()) {
       stop = true;
+      return;
+    }
+    if (!needed[k]) {  // a partial table: zero trees of the full table's shape
+      const int channels = channel_count(brdf);
+      entries[k] = project(Grid(options.wi_resolution, channels, 1), options.projection);
+      if (options.tilt_derivatives)
+        tilts[k] =
+            project(Grid(std::min(options.tilt_resolution, options.wi_resolution), channels, 2),
+                    {.tolerance = 0, .mode = ProjectionOptions::Mode::absolute});
+      control.report(++done, count);
       return;
     }
     const Vec3 wo = table_outgoing(int(k % m), int(k / m), m);

@@ -4,6 +4,7 @@
 
 #include <array>
 #include <string>
+#include <vector>
 
 #include "basis/brdf.h"
 #include "basis/convolution.h"
@@ -63,6 +64,10 @@ struct BrdfTableOptions {
   // Tabulation stops with std::length_error once the trees pass this size (a .qt file holds
   // at most 2 GiB), before memory runs out.
   std::size_t max_bytes = std::size_t(2000) << 20;
+  // When not empty, only the entries that untilted lookups at these outgoing directions read
+  // (table_taps) are tabulated, and every other entry holds zero: a partial table, for tests
+  // and previews that need a few directions of a large table.
+  std::vector<Vec3> only_for;
   SupersampleOptions supersampling{.relative_tolerance = 2e-3,
                                    .absolute_floor = 1e-6,
                                    .floor_fraction_of_mean = 1,
