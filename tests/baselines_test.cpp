@@ -2,11 +2,14 @@
 // the dot product, exact rotation) and Haar wavelets (exact when all coefficients are kept).
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <numbers>
 #include <random>
+#include <vector>
 
 #include "basis/comparison.h"
 #include "basis/dense.h"
+#include "basis/gauss_legendre.h"
 #include "basis/haar.h"
 #include "basis/sh.h"
 #include "support/brdf_reference.h"
@@ -40,6 +43,26 @@ std::vector<double> sphere_gram(int count, F values) {
       }
     }
   return gram;
+}
+
+// The quadrature under the SH rotation and the reference integrals: n nodes integrate x^k over
+// [-1, 1] exactly for k <= 2n - 1 (2 / (k + 1) for even k, 0 for odd), and not for k = 2n.
+TEST(GaussLegendre, IsExactUpToDegreeTwoNMinusOne) {
+  for (int n = 1; n <= 16; ++n) {
+    const std::vector<QuadratureNode> rule = gauss_legendre(n);
+    ASSERT_EQ(rule.size(), std::size_t(n));
+    for (int k = 0; k <= 2 * n; ++k) {
+      double sum = 0;
+      for (const auto& [x, weight] : rule)
+        sum += weight * std::pow(x, k);
+      const double exact = k % 2 ? 0.0 : 2.0 / (k + 1);
+      if (k < 2 * n) {
+        EXPECT_NEAR(sum, exact, 1e-13) << "n " << n << " degree " << k;
+      } else if (n <= 8) {
+        EXPECT_GT(std::abs(sum - exact), 1e-6) << "n " << n << " degree " << k;
+      }
+    }
+  }
 }
 
 TEST(SphericalHarmonics, AreOrthonormal) {

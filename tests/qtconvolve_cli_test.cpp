@@ -165,11 +165,7 @@ TEST(QtconvolveCli, TiltedNormalsAreCompensatedWithinTheDocumentedAccuracy) {
       for (const double wo_theta : {0.0, 40.0}) {
         const double t = degrees * std::numbers::pi / 180, a = axis * std::numbers::pi / 180;
         const Tilt tilt{t * std::cos(a), t * std::sin(a)};
-        const Eigen::Matrix3d r = tilt_rotation(tilt);
-        Frame shading;
-        shading.tangent = record.to_world(r * Vec3::UnitX());
-        shading.bitangent = record.to_world(r * Vec3::UnitY());
-        shading.normal = record.to_world(r * Vec3::UnitZ());
+        const Frame shading = tilted_frame(record, tilt);
         const Vec3 wo = direction(wo_theta, 70);
         const double exact = testing::exact_reflection_rgb(samples, brdf, shading, wo)[1];
         auto value = [&](const std::string& mode) {

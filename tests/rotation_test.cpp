@@ -35,11 +35,7 @@ TiltErrors tilt_errors(const Environment& env, const Brdf& brdf, const BrdfTable
     for (double wo_degrees : {0.0, 30.0, 60.0}) {
       const double phi = axis * std::numbers::pi / 3 + 0.2, t = degrees * std::numbers::pi / 180;
       const Tilt tilt{t * std::cos(phi), t * std::sin(phi)};
-      const Eigen::Matrix3d r = tilt_rotation(tilt);
-      Frame shading;
-      shading.tangent = record.to_world(r * Vec3::UnitX());
-      shading.bitangent = record.to_world(r * Vec3::UnitY());
-      shading.normal = record.to_world(r * Vec3::UnitZ());
+      const Frame shading = tilted_frame(record, tilt);
       const double a = wo_degrees * std::numbers::pi / 180;
       const Vec3 wo(std::sin(a) * std::cos(1.0), std::sin(a) * std::sin(1.0), std::cos(a));
       const double exact = testing::exact_reflection_rgb(samples, brdf, shading, wo)[1];

@@ -24,6 +24,15 @@ Eigen::Matrix3d tilt_rotation(const Tilt& tilt) {
   return Eigen::AngleAxisd(angle, Vec3(tilt.x / angle, tilt.y / angle, 0)).toRotationMatrix();
 }
 
+Frame tilted_frame(const Frame& record, const Tilt& tilt) {
+  const Eigen::Matrix3d r = tilt_rotation(tilt);
+  Frame shading;
+  shading.tangent = record.to_world(r * Vec3::UnitX());
+  shading.bitangent = record.to_world(r * Vec3::UnitY());
+  shading.normal = record.to_world(r * Vec3::UnitZ());
+  return shading;
+}
+
 Vec3 rotate_about_tangent_axis(const Vec3& v, int axis, double angle) {
   const double c = std::cos(angle), s = std::sin(angle);
   if (axis == 0) return {v.x(), c * v.y() - s * v.z(), s * v.y() + c * v.z()};

@@ -6,6 +6,7 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "basis/gauss_legendre.h"
 #include "basis/hemisphere.h"
 
 namespace basis {
@@ -90,32 +91,15 @@ std::vector<double> sh_rotation(int order, const Eigen::Matrix3d& rotation) {
   // Gauss-Legendre nodes in z (exact for polynomials of degree 2 order - 1 in z) and a uniform
   // rule in phi (exact for trigonometric polynomials of degree below 2 order + 1).
   const int nz = order + 1, nphi = 2 * order + 2;
-  std::vector<double> nodes(nz), weights(nz);
-  for (int i = 0; i < nz; ++i) {
-    double x = std::cos(std::numbers::pi * (i + 0.75) / (nz + 0.5)), dp = 0;
-    for (int iter = 0; iter < 100; ++iter) {
-      double p0 = 1, p1 = x;
-      for (int k = 2; k <= nz; ++k) {
-        const double p2 = ((2 * k - 1) * x * p1 - (k - 1) * p0) / k;
-        p0 = p1;
-        p1 = p2;
-      }
-      dp = nz * (x * p1 - p0) / (x * x - 1);
-      const double dx = p1 / dp;
-      x -= dx;
-      if (std::abs(dx) < 1e-15) break;
-    }
-    nodes[i] = x;
-    weights[i] = 2 / ((1 - x * x) * dp * dp);
-  }
+  const std::vector<QuadratureNode> rule = gauss_legendre(nz);
   std::vector<double> y(count), yr(count);
   const Eigen::Matrix3d inverse = rotation.transpose();
   for (int i = 0; i < nz; ++i)
     for (int j = 0; j < nphi; ++j) {
-      const double z = nodes[i], s = std::sqrt(std::max(0.0, 1 - z * z));
+      const double z = rule[i].x, s = std::sqrt(std::max(0.0, 1 - z * z));
       const double phi = 2 * std::numbers::pi * (j + 0.5) / nphi;
       const Vec3 w(s * std::cos(phi), s * std::sin(phi), z);
-      const double weight = weights[i] * 2 * std::numbers::pi / nphi;
+      const double weight = rule[i].weight * 2 * std::numbers::pi / nphi;
       sh_evaluate(order, w, y);
       sh_evaluate(order, inverse * w, yr);
       for (int l = 0; l < order; ++l)  // band blocks only

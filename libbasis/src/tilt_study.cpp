@@ -47,11 +47,7 @@ std::vector<TiltStudyRow> study_tilts(const Environment& environment, const Vec3
         const double phi = 2 * std::numbers::pi * axis / o.axes + 0.2;
         const double t = degrees * std::numbers::pi / 180;
         const Tilt tilt{t * std::cos(phi), t * std::sin(phi)};
-        const Eigen::Matrix3d r = tilt_rotation(tilt);
-        Frame shading;
-        shading.tangent = record.to_world(r * Vec3::UnitX());
-        shading.bitangent = record.to_world(r * Vec3::UnitY());
-        shading.normal = record.to_world(r * Vec3::UnitZ());
+        const Frame shading = tilted_frame(record, tilt);
         const Vec3 wo = outgoing(o.wo_degrees[w]);
         const double exact = reference_reflection(environment, nullptr, Vec3::Zero(), shading, brdf,
                                                   wo, o.reference_subsamples)[1];
@@ -60,8 +56,9 @@ std::vector<TiltStudyRow> study_tilts(const Environment& environment, const Vec3
               std::abs(reflect_tilted(table, radiance.view(), wo, tilt, modes[m]).value[1] -
                        exact) /
               exact;
-        // SH: the light rotated exactly into the shading frame (L_s(w) = L_record(r w), the
-        // coefficients of f(R^-1 w) with R = r^T), against the transfer at wo.
+        // SH: the light rotated exactly into the shading frame (L_s(w) = L_record(r w), r the
+        // tilt's rotation; the coefficients of f(R^-1 w) with R = r^T), against the transfer.
+        const Eigen::Matrix3d r = tilt_rotation(tilt);
         for (std::size_t k = 0; k < o.sh_orders.size(); ++k) {
           const int order = o.sh_orders[k];
           const auto rotated = sh_rotate(sh_light[k], 3, order, sh_rotation(order, r.transpose()));

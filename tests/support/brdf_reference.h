@@ -2,39 +2,18 @@
 // quadrature on a mesh graded towards the mirror direction, where lobes are sharp.
 #pragma once
 
-#include <array>
 #include <cmath>
 #include <numbers>
 #include <vector>
 
 #include "basis/brdf.h"
+#include "basis/gauss_legendre.h"
 
 namespace basis::testing {
 
 // 16-point Gauss-Legendre nodes and weights on [-1, 1].
-inline const std::array<std::pair<double, double>, 16>& gauss_legendre_16() {
-  static const std::array<std::pair<double, double>, 16> rule = [] {
-    std::array<std::pair<double, double>, 16> r{};
-    const int n = 16;
-    for (int i = 0; i < n; ++i) {
-      double x = std::cos(std::numbers::pi * (i + 0.75) / (n + 0.5));
-      double dp = 0;
-      for (int iter = 0; iter < 100; ++iter) {  // Newton on P_n
-        double p0 = 1, p1 = x;
-        for (int k = 2; k <= n; ++k) {
-          const double p2 = ((2 * k - 1) * x * p1 - (k - 1) * p0) / k;
-          p0 = p1;
-          p1 = p2;
-        }
-        dp = n * (x * p1 - p0) / (x * x - 1);
-        const double dx = p1 / dp;
-        x -= dx;
-        if (std::abs(dx) < 1e-15) break;
-      }
-      r[i] = {x, 2 / ((1 - x * x) * dp * dp)};
-    }
-    return r;
-  }();
+inline const std::vector<QuadratureNode>& gauss_legendre_16() {
+  static const std::vector<QuadratureNode> rule = gauss_legendre(16);
   return rule;
 }
 

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "basis/brdf.h"
+#include "basis/frame.h"
 #include "basis/vector.h"
 
 namespace basis {
@@ -21,6 +22,10 @@ Tilt tilt_to(const Vec3& normal);
 
 // Rotation matrix of a tilt (Rodrigues).
 Eigen::Matrix3d tilt_rotation(const Tilt& tilt);
+
+// The record's frame rotated by a tilt: the frame of a surface tilted against the record, in
+// world coordinates.
+Frame tilted_frame(const Frame& record, const Tilt& tilt);
 
 // The rotation of the record's frame by `angle` radians about its tangent (axis 0) or
 // bitangent (axis 1), applied to v.
