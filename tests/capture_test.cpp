@@ -2,6 +2,8 @@
 // their pixels, a wall hiding half the hemisphere, and a one-pixel sun.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <numbers>
 
 #include "basis/brdf_table.h"
@@ -134,6 +136,109 @@ TEST(Capture, ASunSmallerThanATexelKeepsItsEnergy) {
     for (float t : g.plane(0, 0))
       lit += t > 1e-3 * total;
     EXPECT_LE(lit, 4) << res;
+  }
+}
+
+// A map with two one-pixel suns and a bright patch 6 x 6 pixels (8 degrees) wide over a grey
+// background: the suns are compact lights, the patch is not.
+Image two_suns_and_a_patch() {
+  Image image(256, 128, 3);
+  for (float& p : image.pixels)
+    p = 1;
+  for (int c = 0; c < 3; ++c) {
+    image.at(57, 40, c) = 1e5f;
+    image.at(150, 30, c) = 5e4f * (c + 1);
+    for (int y = 50; y < 56; ++y)
+      for (int x = 200; x < 206; ++x)
+        image.at(x, y, c) = 1000;
+  }
+  return image;
+}
+
+TEST(Capture, CompactLightsAreFoundWithTheirEnergyAndDirection) {
+  const Image image = two_suns_and_a_patch();
+  const Environment env(image);
+  ASSERT_EQ(env.lights().size(), 2u);
+  // The map's own geometry: a pixel's solid angle 2 pi / W (cos theta0 - cos theta1).
+  auto pixel_solid_angle = [](int row) {
+    return 2 * std::numbers::pi / 256 *
+           (std::cos(std::numbers::pi * row / 128) - std::cos(std::numbers::pi * (row + 1) / 128));
+  };
+  for (const auto& light : env.lights()) {
+    const bool first = light.direction.isApprox(env.direction(57.5, 40.5), 1e-9);
+    const int row = first ? 40 : 30;
+    EXPECT_TRUE(first || light.direction.isApprox(env.direction(150.5, 30.5), 1e-9));
+    for (int c = 0; c < 3; ++c) {
+      const double excess = image.at(first ? 57 : 150, row, c) - 1;
+      // The excess over the smooth level, which is well under 1 % of a sun.
+      EXPECT_NEAR(light.energy[c], excess * pixel_solid_angle(row),
+                  0.01 * excess * pixel_solid_angle(row));
+      EXPECT_LT(light.energy[c], excess * pixel_solid_angle(row));
+    }
+    EXPECT_LT(light.radius, 1e-9);
+  }
+  for (const auto& b : env.bright_pixels())
+    EXPECT_EQ(b.light >= 0, (b.column == 57 && b.row == 40) || (b.column == 150 && b.row == 30))
+        << b.column << " " << b.row;
+}
+
+TEST(Capture, LightsKeptApartCarryWhatTheTexelsWouldHold) {
+  const Environment env(two_suns_and_a_patch());
+  for (const Vec3& n : {Vec3(0.2, 0.1, 1).normalized(), Vec3(0.3, 0.9, 0.4).normalized()}) {
+    const Frame frame = Frame::from_normal(n);
+    const Color expected = env.irradiance(n);  // integral of L cos over the map's pixels
+    for (int res : {16, 64}) {
+      std::vector<DirectionalLight> lights;
+      const Grid apart =
+          capture(env, nullptr, Vec3::Zero(), frame, {.resolution = res}, 0, nullptr, &lights);
+      const Grid splatted = capture(env, nullptr, Vec3::Zero(), frame, {.resolution = res});
+      double seen = 0;
+      for (const auto& light : env.lights())
+        seen += frame.to_local(light.direction).z() > 0;
+      ASSERT_EQ(lights.size(), seen) << res;
+      for (const DirectionalLight& l : lights) {
+        const Vec3 w(l.direction[0], l.direction[1], l.direction[2]);
+        EXPECT_NEAR(w.norm(), 1, 1e-12);
+        const bool matched = std::any_of(env.lights().begin(), env.lights().end(), [&](auto& e) {
+          return std::acos(std::min(1.0, frame.to_local(e.direction).dot(w))) < 0.5 * 0.0246;
+        });
+        EXPECT_TRUE(matched) << "a light's direction is off by more than half a pixel";
+      }
+      // Texels plus lights hold what the splatted capture holds, and both the map's energy.
+      Grid sum = apart;
+      splat_lights(lights, sum);
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_NEAR(sum.mean(0, c), splatted.mean(0, c), 2e-3 * splatted.mean(0, c)) << res;
+        EXPECT_NEAR(std::numbers::pi * sum.mean(0, c), expected[c], 0.01 * expected[c]) << res;
+      }
+    }
+  }
+}
+
+TEST(Capture, AnOccludedSunIsNoLight) {
+  Image dark(256, 128, 3);
+  for (int c = 0; c < 3; ++c)
+    dark.at(57, 40, c) = 1e5f;
+  const Environment env(dark);
+  ASSERT_EQ(env.lights().size(), 1u);
+  const Vec3 sun = env.lights()[0].direction;
+  // A wall across the sun's side of the point, or across the other side.
+  for (const double side : {1.0, -1.0}) {
+    const Vec3 a = sun.unitOrthogonal(), b = sun.cross(a);
+    const Vec3 centre = side * 0.5 * sun;
+    TriangleMesh wall;
+    auto corner = [&](double s, double t) {
+      const Vec3 p = centre + 10 * (s * a + t * b);
+      return std::array<float, 3>{float(p.x()), float(p.y()), float(p.z())};
+    };
+    wall.vertices = {corner(-1, -1), corner(1, -1), corner(1, 1), corner(-1, 1)};
+    wall.triangles = {{0, 1, 2}, {0, 2, 3}};
+    wall.emission = {{0, 0, 0}, {0, 0, 0}};
+    const EmbreeScene scene(wall);
+    std::vector<DirectionalLight> lights;
+    capture(env, &scene, Vec3::Zero(), Frame::from_normal(sun), {.resolution = 16}, 0, nullptr,
+            &lights);
+    EXPECT_EQ(lights.size(), side > 0 ? 0u : 1u) << side;
   }
 }
 

@@ -2,6 +2,7 @@
 // and future files are rejected with one clear line; writes are atomic.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -43,7 +44,14 @@ CaptureSet sample_captures(int count) {
     const double a = 0.3 * i;
     c.normals.push_back({std::sin(a), 0, std::cos(a)});
     c.tangents.push_back({std::cos(a), 0, -std::sin(a)});
+    // Every other capture sees i % 3 lights (a sun kept apart), the rest none.
+    c.light_offsets.push_back(std::uint32_t(c.lights.size()));
+    for (int l = 0; l < (i % 2 ? i % 3 : 0); ++l) {
+      const double t = 0.2 + 0.3 * l;
+      c.lights.push_back({{std::sin(t), 0, std::cos(t)}, {1e3 * (i + 1), 2e3, 5.0 * l}});
+    }
   }
+  c.light_offsets.push_back(std::uint32_t(c.lights.size()));
   return c;
 }
 
@@ -164,8 +172,49 @@ TEST(QtFormat, CaptureSetRoundTrip) {
     const Convolution a = convolve(loaded.trees.tree(i), loaded.trees.tree((i + 1) % 12));
     const Convolution b = convolve(captures.trees.tree(i), captures.trees.tree((i + 1) % 12));
     EXPECT_EQ(a.value, b.value);
+    const auto lights = loaded.lights_of(i), expected = captures.view().lights_of(i);
+    ASSERT_EQ(lights.size(), expected.size()) << i;
+    for (std::size_t l = 0; l < lights.size(); ++l) {
+      EXPECT_EQ(lights[l].direction, expected[l].direction);
+      EXPECT_EQ(lights[l].energy, expected[l].energy);
+    }
   }
+  EXPECT_GT(loaded.lights.size(), 0u);
   EXPECT_THROW(file.brdf_table(), FileError);
+  // A set without lights stays without.
+  CaptureSet unlit = sample_captures(2);
+  unlit.lights.clear();
+  unlit.light_offsets.clear();
+  const QtFile plain = QtFile::from_bytes(encode_capture_set(unlit.view(), {}, {}), "plain.qt");
+  EXPECT_TRUE(plain.captures().light_offsets.empty());
+  EXPECT_TRUE(plain.captures().lights_of(1).empty());
+}
+
+TEST(QtFormat, BadCaptureLightsAreNamed) {
+  auto error_of = [](const CaptureSet& c) {
+    return load_error(encode_capture_set(c.view(), {}, {}));
+  };
+  const CaptureSet good = sample_captures(6);
+  ASSERT_EQ(error_of(good), "");
+  ASSERT_GE(good.lights.size(), 2u);
+  CaptureSet below = good;
+  below.lights[0].direction = {0, std::sin(0.1), -std::cos(0.1)};
+  EXPECT_NE(error_of(below).find("capture light 0"), std::string::npos);
+  CaptureSet long_direction = good;
+  long_direction.lights[1].direction = {0, 0, 2};
+  EXPECT_NE(error_of(long_direction).find("capture light 1"), std::string::npos);
+  CaptureSet nan = good;
+  nan.lights[1].energy[2] = std::nan("");
+  EXPECT_NE(error_of(nan).find("energy negative or not finite"), std::string::npos);
+  CaptureSet negative = good;
+  negative.lights[0].energy[0] = -1;
+  EXPECT_NE(error_of(negative).find("energy negative or not finite"), std::string::npos);
+  CaptureSet unsorted = good;
+  unsorted.light_offsets[1] = unsorted.light_offsets[2] + 1;
+  EXPECT_NE(error_of(unsorted).find("light offsets"), std::string::npos);
+  CaptureSet short_offsets = good;
+  short_offsets.light_offsets.pop_back();
+  EXPECT_THROW(encode_capture_set(short_offsets.view(), {}, {}), std::invalid_argument);
 }
 
 // Every mutated or truncated buffer either loads as a valid file, whose trees then convolve
@@ -238,9 +287,10 @@ TEST(QtFormat, ForeignEmptyAndFutureFilesAreRejected) {
     EXPECT_EQ(load_error({reinterpret_cast<const std::byte*>(b.GetBufferPointer()), b.GetSize()}),
               "input.qt: not a .qt file (no BQTF identifier)");
   }
-  // A future version of the format, otherwise well formed.
-  {
-    const Quadtree tree = sample_tree(8, 1, 0);
+  // Versions 1 (before directional lights) and 2 read; a future version, otherwise well
+  // formed, is refused.
+  const Quadtree tree = sample_tree(8, 1, 0);
+  for (const std::uint32_t version : {1u, kQtFormatVersion, kQtFormatVersion + 1}) {
     flatbuffers::FlatBufferBuilder b;
     const format::TreeExtent extent(0, tree.node_count());
     const auto trees = format::CreateTreeSet(
@@ -249,11 +299,14 @@ TEST(QtFormat, ForeignEmptyAndFutureFilesAreRejected) {
                                 tree.nodes.size()),
         b.CreateVectorOfStructs(reinterpret_cast<const format::Quad*>(tree.errors.data()),
                                 tree.errors.size()));
-    const auto root = format::CreateFile(b, kQtFormatVersion + 1, format::Kind::Tree,
+    const auto root = format::CreateFile(b, version, format::Kind::Tree,
                                          format::Mapping::CosineConcentric, trees);
     format::FinishFileBuffer(b, root);
     EXPECT_EQ(load_error({reinterpret_cast<const std::byte*>(b.GetBufferPointer()), b.GetSize()}),
-              "input.qt: format version 2 is newer than this build reads (1)");
+              version <= kQtFormatVersion ? ""
+                                          : "input.qt: format version " + std::to_string(version) +
+                                                " is newer than this build reads (" +
+                                                std::to_string(kQtFormatVersion) + ")");
   }
   EXPECT_THROW(QtFile::load(dir.file("missing.qt")), FileError);
   try {

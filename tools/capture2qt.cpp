@@ -60,6 +60,10 @@ int main(int argc, char** argv) {
       "escape take the environment averaged over their stratum's solid angle; bright "
       "environment pixels (a sun) are split into pieces whose energy goes exactly into the "
       "texel they fall in, behind a shadow ray, so that no sun is lost or multiplied. "
+      "Compact lights among them (a sun: groups of pixels at least 4 times brighter than that "
+      "level, within 3 degrees) are kept apart as directions with their energy, which "
+      "qtconvolve shades with the BRDF at their exact direction; --splat-lights puts them into "
+      "texels instead. "
       "An environment map with NaN or infinite texels is refused (exit 1) unless --zero-invalid "
       "reads them as 0; negative texels are read as 0; a warning counts what was set to 0.\n\n"
       "Or, with --image, compress one capture image (square, power-of-two side, texel (x, y) "
@@ -71,7 +75,7 @@ int main(int argc, char** argv) {
   long long sample = 0;
   std::uint64_t seed = 1;
   int res = 128, spp = 4, threads = 0;
-  bool absolute = false, zero_invalid = false, quiet = false, json = false;
+  bool absolute = false, zero_invalid = false, quiet = false, json = false, splat = false;
   auto* light = app.add_option_group("light", "environment (one of)");
   light->add_option("--env", env_path,
                     "lat-long environment map (EXR, HDR, any format OpenImageIO reads; at most "
@@ -102,13 +106,16 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 4096));
   app.add_option("--tolerance", tolerance,
                  "refine while a quadrant's error bound exceeds this fraction of the capture's "
-                 "mean (default 0.05)")
+                 "mean, lights kept apart included (default 0.05)")
       ->check(CLI::NonNegativeNumber);
   app.add_flag("--absolute", absolute, "read --tolerance as an absolute radiance");
   app.add_option("-o,--output", output,
                  "output .qt file (default captures.qt, or the image's name with .qt); a .qt "
                  "file holds at most 2 GiB, capturing stops with an error beyond");
-  app.add_option("--dump", dump, "also write every capture's texels as DIR/capture_K.exr");
+  app.add_option("--dump", dump,
+                 "also write every capture's texels as DIR/capture_K.exr (lights splatted in)");
+  app.add_flag("--splat-lights", splat,
+               "put compact lights into the texels they fall in instead of keeping them apart");
   app.add_option("--threads", threads, "worker threads (default: all cores)")
       ->check(CLI::Range(1, 1024));
   app.add_flag("--zero-invalid", zero_invalid,
@@ -211,13 +218,17 @@ int main(int argc, char** argv) {
     options.capture.seed = seed;
     options.capture.ray_offset = 1e-4 * std::max(1.0, mesh ? mesh->extent() : 1.0);
     options.projection = projection;
+    options.separate_lights = !splat;
     if (!dump.empty()) {
       if (!std::filesystem::is_directory(dump))
         throw basis::FileError(dump + ": not a directory (--dump writes into an existing one)");
-      options.on_grid = [&](std::size_t index, const basis::Grid& grid) {
+      options.on_grid = [&](std::size_t index, const basis::Grid& grid,
+                            std::span<const basis::DirectionalLight> lights) {
         char name[32];
         std::snprintf(name, sizeof name, "capture_%05zu.exr", index);
-        basis::write_image((std::filesystem::path(dump) / name).string(), grid_to_image(grid));
+        basis::Grid texels = grid;
+        basis::splat_lights(lights, texels);
+        basis::write_image((std::filesystem::path(dump) / name).string(), grid_to_image(texels));
       };
     }
     if (output.empty()) output = "captures.qt";
@@ -243,7 +254,8 @@ int main(int argc, char** argv) {
                                                {"env", env_path},
                                                {"env_rotate", env_rotate},
                                                {"env_constant", env_constant},
-                                               {"scene", scene_path}};
+                                               {"scene", scene_path},
+                                               {"lights", splat ? "splatted" : "apart"}};
     const auto bytes = basis::encode_capture_set(
         set.view(), projection, {"capture2qt", basis::kVersion, parameters.dump(), sources});
     basis::write_qt(output, bytes);
@@ -256,6 +268,8 @@ int main(int argc, char** argv) {
       std::cout << nlohmann::ordered_json{{"output", output},
                                           {"captures", set.positions.size()},
                                           {"nodes", set.trees.view().total_nodes()},
+                                          {"environment_lights", environment.lights().size()},
+                                          {"lights", set.lights.size()},
                                           {"bytes", bytes.size()},
                                           {"rays", timings.stats.rays},
                                           {"capture_seconds", timings.capture_seconds},
@@ -267,10 +281,11 @@ int main(int argc, char** argv) {
     }
     std::printf(
         "%s: %zu captures of %d x %d texels (%d rays each), %zu nodes (%.1f per "
-        "capture), %.2f MiB; %.2f M rays, projection %.1f %% of capture time, %.2f s\n",
+        "capture), %zu compact lights seen (%zu in the environment%s), %.2f MiB; %.2f M rays, "
+        "projection %.1f %% of capture time, %.2f s\n",
         output.c_str(), set.positions.size(), res, res, spp, set.trees.view().total_nodes(),
-        double(set.trees.view().total_nodes()) / double(set.positions.size()),
-        double(bytes.size()) / (1 << 20), double(timings.stats.rays) * 1e-6, 100 * projection_share,
-        seconds);
+        double(set.trees.view().total_nodes()) / double(set.positions.size()), set.lights.size(),
+        environment.lights().size(), splat ? ", splatted" : "", double(bytes.size()) / (1 << 20),
+        double(timings.stats.rays) * 1e-6, 100 * projection_share, seconds);
   });
 }

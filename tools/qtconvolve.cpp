@@ -5,8 +5,10 @@
 #include <cstdio>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "basis/dense.h"
+#include "basis/hemisphere.h"
 #include "basis/image_io.h"
 #include "basis/picture.h"
 #include "basis/qt_file.h"
@@ -30,6 +32,7 @@ struct Row {
 // multiplied texel by texel.
 std::vector<basis::Rgb> references(const basis::QtFile& table_file,
                                    const basis::QtFile& captures_file, const basis::Vec3& wo,
+                                   const basis::Brdf* light_brdf,
                                    const basis::cli::ProgressBar& progress) {
   const basis::BrdfTableView table = table_file.brdf_table();
   const basis::CaptureSetView captures = captures_file.captures();
@@ -56,18 +59,39 @@ std::vector<basis::Rgb> references(const basis::QtFile& table_file,
         tap.weight,
         basis::tabulate_entry(spec.brdf, basis::table_outgoing(tap.i, tap.j, options.wo_resolution),
                               options));
+  const bool lights_apart = !captures.light_offsets.empty();
   std::vector<basis::Rgb> out(captures.size());
   for (std::size_t k = 0; k < captures.size(); ++k) {
     progress.control().check();
     const basis::Vec3 position(captures.positions[k][0], captures.positions[k][1],
                                captures.positions[k][2]);
-    const basis::Grid grid = basis::capture(environment, scene.get(), position,
-                                            basis::capture_frame(captures, k), recipe.options, k);
+    std::vector<basis::DirectionalLight> lights;
+    const basis::Grid grid =
+        basis::capture(environment, scene.get(), position, basis::capture_frame(captures, k),
+                       recipe.options, k, nullptr, lights_apart ? &lights : nullptr);
     basis::Rgb sum{0, 0, 0};
     for (const auto& [weight, entry] : entries) {
       const basis::Rgb d = basis::dense_convolve_naive(entry, grid);
       for (int c = 0; c < 3; ++c)
         sum[c] += float(weight * std::numbers::pi * d[c]);
+    }
+    // Directional lights: f at the light (the BRDF itself, or the entries' texels there).
+    for (const basis::DirectionalLight& light : lights) {
+      const basis::Vec3 wi(light.direction[0], light.direction[1], light.direction[2]);
+      basis::Color f{0, 0, 0};
+      if (light_brdf) {
+        f = basis::evaluate(*light_brdf, wi, wo);
+      } else {
+        const basis::Vec2 uv = basis::cosine_hemisphere_to_square(wi);
+        for (const auto& [weight, entry] : entries) {
+          const int n = entry.resolution;
+          const int x = std::min(n - 1, int(uv.x() * n)), y = std::min(n - 1, int(uv.y() * n));
+          for (int c = 0; c < 3; ++c)
+            f[c] += weight * entry.at(0, std::min(c, entry.channels - 1), x, y);
+        }
+      }
+      for (int c = 0; c < 3; ++c)
+        sum[c] += float(f[c] * light.energy[c] * wi.z());
     }
     out[k] = sum;
     progress.control().report(k + 1, captures.size());
@@ -90,9 +114,13 @@ int main(int argc, char** argv) {
       "Values are RGB (a grey file counts for all three); each comes with a bound on its "
       "difference to the product of the full-resolution texels (for tables: of the four entries "
       "used, not of the BRDF between entries). Trees of different resolutions convolve as the "
-      "piecewise-constant functions they are.",
+      "piecewise-constant functions they are.\n"
+      "Captures may carry directional lights (a sun kept apart by capture2qt): a table shades "
+      "them with f at their direction (--lights); a product of captures counts each in the "
+      "texel it falls in.",
       "qtconvolve");
-  std::string a_path, b_path, wo_text = "0,0,1", normal_text, tilt_mode = "compensated", png;
+  std::string a_path, b_path, wo_text = "0,0,1", normal_text, tilt_mode = "compensated", png,
+                              lights_from = "brdf";
   bool json = false, csv = false, reference = false, time = false, quiet = false;
   int threads = 0;
   app.add_option("a", a_path, "first .qt file")->required();
@@ -108,6 +136,13 @@ int main(int argc, char** argv) {
                  "tilt handling with --normal: none, reparametrised, "
                  "compensated (default)")
       ->check(CLI::IsMember({"none", "reparametrised", "compensated"}));
+  app.add_option("--lights", lights_from,
+                 "f for the captures' directional lights (a sun): brdf (default), the BRDF "
+                 "whose spec the table stores, at the light's exact direction (a measured BRDF "
+                 "needs its data file where the spec was; the table is used when it is "
+                 "missing), or table, the table's texel where the light falls (less accurate "
+                 "near the horizon, see README)")
+      ->check(CLI::IsMember({"brdf", "table"}));
   app.add_flag("--json", json, "print {\"results\": [{\"index\", \"value\", \"bound\"}, ...]}");
   app.add_flag("--csv", csv, "print CSV: index,r,g,b,bound_r,bound_g,bound_b[,reference...]");
   app.add_flag("--reference", reference,
@@ -165,22 +200,35 @@ int main(int argc, char** argv) {
         throw basis::FileError(b_path + ": the two capture sets do not hold the same points");
     }
 
+    // The BRDF for directional lights, from the table's stored spec.
+    std::optional<basis::BrdfSpec> light_spec;
+    if (table && other->kind() == QtKind::capture_set && !other->captures().lights.empty() &&
+        lights_from == "brdf") {
+      try {
+        light_spec = basis::table_brdf(*table);
+        shading.light_brdf = &light_spec->brdf;
+      } catch (const basis::FileError& e) {
+        if (!quiet)
+          std::fprintf(stderr,
+                       "qtconvolve: warning: %s; directional lights use the table's texels\n",
+                       e.what());
+      }
+    }
+
     // One evaluation of everything: the convolutions the user asked for.
     const std::size_t count =
         table ? other->trees().size() : std::max(a.trees().size(), b.trees().size());
+    auto as_captures = [](const basis::QtFile& f) {
+      return f.kind() == QtKind::capture_set ? f.captures()
+                                             : basis::CaptureSetView{{}, {}, {}, f.trees(), {}, {}};
+    };
     auto evaluate = [&](std::size_t k) -> basis::Convolution {
       if (table) {
         if (other->kind() == QtKind::capture_set)
           return basis::shade(table->brdf_table(), other->captures(), k, shading);
         return basis::reflect(table->brdf_table(), other->tree(), shading.wo);
       }
-      basis::Convolution c = basis::convolve(a.trees().tree(a.trees().size() == 1 ? 0 : k),
-                                             b.trees().tree(b.trees().size() == 1 ? 0 : k));
-      for (int ch = 0; ch < 3; ++ch) {
-        c.value[ch] *= float(std::numbers::pi);
-        c.bound[ch] *= float(std::numbers::pi);
-      }
-      return c;
+      return basis::capture_product(as_captures(a), as_captures(b), k);
     };
     std::vector<Row> rows(count);
     for (std::size_t k = 0; k < count; ++k)
@@ -213,8 +261,8 @@ int main(int argc, char** argv) {
     if (reference) {
       const auto arena = basis::cli::thread_arena(threads);
       basis::cli::ProgressBar progress("qtconvolve --reference", quiet || (!json && !csv && false));
-      const auto refs =
-          arena->execute([&] { return references(*table, *other, shading.wo, progress); });
+      const auto refs = arena->execute(
+          [&] { return references(*table, *other, shading.wo, shading.light_brdf, progress); });
       progress.finish();
       for (std::size_t k = 0; k < count; ++k)
         rows[k].reference = refs[k];

@@ -1,6 +1,7 @@
 // qtinfo: what a .qt file holds, and a picture of one of its trees.
 #include <iostream>
 
+#include "basis/hemisphere.h"
 #include "basis/image_io.h"
 #include "basis/picture.h"
 #include "basis/qt_file.h"
@@ -13,7 +14,8 @@ int main(int argc, char** argv) {
       "Describe a .qt file: its kind (tree, BRDF table, capture set), resolution, channels, "
       "tolerance, node counts per tree and per level, storage against dense grids, and where it "
       "came from. Optionally draw one tree as a PNG: the reconstructed function over the unit "
-      "square (u right, v down) with the cells of the tree outlined.",
+      "square (u right, v down) with the cells of the tree outlined, and a capture's directional "
+      "lights (a sun kept apart) circled in yellow.",
       "qtinfo");
   std::string input, png, entry;
   int index = -1, group = 0, size = 512;
@@ -68,6 +70,15 @@ int main(int argc, char** argv) {
     if (group >= tree.shape().groups)
       throw basis::cli::UsageError("--group " + std::to_string(group) + " but the trees hold " +
                                    std::to_string(tree.shape().groups) + " groups");
-    basis::write_image(png, basis::draw_tree(tree, {.size = size, .group = group}));
+    // A capture's directional lights are circled where they fall.
+    std::vector<std::array<double, 2>> markers;
+    if (file.kind() == basis::QtKind::capture_set)
+      for (const basis::DirectionalLight& l : file.captures().lights_of(index < 0 ? 0 : index)) {
+        const basis::Vec2 uv = basis::cosine_hemisphere_to_square(
+            basis::Vec3(l.direction[0], l.direction[1], l.direction[2]));
+        markers.push_back({uv.x(), uv.y()});
+      }
+    basis::write_image(png,
+                       basis::draw_tree(tree, {.size = size, .group = group, .markers = markers}));
   });
 }

@@ -21,6 +21,8 @@ namespace fb = basis::format;
 static_assert(sizeof(Quad) == sizeof(fb::Quad) && alignof(Quad) == alignof(fb::Quad));
 static_assert(sizeof(TreeExtent) == sizeof(fb::TreeExtent));
 static_assert(sizeof(Point3) == sizeof(fb::Vec3) && alignof(Point3) == alignof(fb::Vec3));
+static_assert(sizeof(DirectionalLight) == sizeof(fb::Light) &&
+              alignof(DirectionalLight) == alignof(fb::Light));
 
 const char* to_string(QtKind kind) {
   switch (kind) {
@@ -261,6 +263,26 @@ void QtFile::verify() {
       if (std::abs(n[0] * t[0] + n[1] * t[1] + n[2] * t[2]) > 1e-3)
         fail(name_, "capture " + std::to_string(i) + ": tangent is not orthogonal to the normal");
     }
+    captures_.lights = as_span<DirectionalLight>(set_info->lights());
+    if (const auto* offsets = set_info->light_offsets())
+      captures_.light_offsets = {offsets->data(), offsets->size()};
+    if (!captures_.light_offsets.empty() || !captures_.lights.empty()) {
+      const auto& offsets = captures_.light_offsets;
+      if (offsets.size() != captures_.size() + 1 || offsets.front() != 0 ||
+          offsets.back() != captures_.lights.size() ||
+          !std::is_sorted(offsets.begin(), offsets.end()))
+        fail(name_, "capture light offsets do not match the captures and their lights");
+      for (std::size_t i = 0; i < captures_.lights.size(); ++i) {
+        const DirectionalLight& l = captures_.lights[i];
+        const Point3& e = l.energy;
+        if (!finite_unit_frames({&l.direction, 1}, true) || !(l.direction[2] > 0) ||
+            !std::isfinite(e[0]) || !std::isfinite(e[1]) || !std::isfinite(e[2]) || e[0] < 0 ||
+            e[1] < 0 || e[2] < 0 || std::max({e[0], e[1], e[2]}) > 3e38)
+          fail(name_, "capture light " + std::to_string(i) +
+                          ": direction not a unit vector above the horizon, or energy negative "
+                          "or not finite");
+      }
+    }
   }
 }
 
@@ -445,9 +467,13 @@ std::vector<std::byte> encode_capture_set(const CaptureSetView& captures,
       captures.normals.size() != captures.trees.size() ||
       captures.tangents.size() != captures.trees.size())
     throw std::invalid_argument("capture positions, normals and tangents do not match the trees");
-  flatbuffers::FlatBufferBuilder b(captures.trees.nodes().size_bytes() +
-                                   captures.trees.errors().size_bytes() +
-                                   captures.size() * 3 * sizeof(Point3) + 4096);
+  if (!captures.light_offsets.empty() && (captures.light_offsets.size() != captures.size() + 1 ||
+                                          captures.light_offsets.back() != captures.lights.size()))
+    throw std::invalid_argument("capture light offsets do not match the captures and lights");
+  flatbuffers::FlatBufferBuilder b(
+      captures.trees.nodes().size_bytes() + captures.trees.errors().size_bytes() +
+      captures.size() * 3 * sizeof(Point3) + captures.lights.size_bytes() +
+      captures.light_offsets.size_bytes() + 4096);
   const auto trees = build_tree_set(b, captures.trees, projection);
   auto points = [&](std::span<const Point3> v) {
     return b.CreateVectorOfStructs(reinterpret_cast<const fb::Vec3*>(v.data()), v.size());
@@ -455,7 +481,14 @@ std::vector<std::byte> encode_capture_set(const CaptureSetView& captures,
   const auto positions = points(captures.positions);
   const auto normals = points(captures.normals);
   const auto tangents = points(captures.tangents);
-  const auto info = fb::CreateCaptureSet(b, positions, normals, tangents);
+  flatbuffers::Offset<flatbuffers::Vector<const fb::Light*>> lights = 0;
+  flatbuffers::Offset<flatbuffers::Vector<std::uint32_t>> light_offsets = 0;
+  if (!captures.light_offsets.empty()) {
+    lights = b.CreateVectorOfStructs(reinterpret_cast<const fb::Light*>(captures.lights.data()),
+                                     captures.lights.size());
+    light_offsets = b.CreateVector(captures.light_offsets.data(), captures.light_offsets.size());
+  }
+  const auto info = fb::CreateCaptureSet(b, positions, normals, tangents, lights, light_offsets);
   const auto prov = build_provenance(b, provenance);
   return finish(b, fb::Kind::CaptureSet, trees, 0, info, prov);
 }

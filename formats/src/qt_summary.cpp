@@ -73,7 +73,14 @@ ordered_json summarise(const QtFile& file) {
         lo[k] = std::min(lo[k], q[k]);
         hi[k] = std::max(hi[k], q[k]);
       }
-    j["captures"] = {{"points", c.size()}, {"bounds_min", lo}, {"bounds_max", hi}};
+    std::size_t lit = 0;
+    for (std::size_t k = 0; k < c.size(); ++k)
+      lit += !c.lights_of(k).empty();
+    j["captures"] = {{"points", c.size()},
+                     {"bounds_min", lo},
+                     {"bounds_max", hi},
+                     {"lights", c.lights.size()},
+                     {"points_with_lights", lit}};
   }
   const Provenance prov = file.provenance();
   j["provenance"] = {{"tool", prov.tool},
@@ -155,6 +162,9 @@ std::string summary_text(const QtFile& file) {
                   lo[0].get<double>(), lo[1].get<double>(), lo[2].get<double>(),
                   hi[0].get<double>(), hi[1].get<double>(), hi[2].get<double>());
     out << line;
+    out << "lights       " << j["captures"]["lights"].get<std::size_t>()
+        << " directional (compact lights kept apart) at "
+        << j["captures"]["points_with_lights"].get<std::size_t>() << " points\n";
   }
   if (j.contains("brdf_table")) {
     const auto& t = j["brdf_table"];

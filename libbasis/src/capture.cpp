@@ -38,7 +38,7 @@ double angle_between(const Vec3& a, const Vec3& b) {
 
 Grid capture(const Environment& environment, const RayScene* scene, const Vec3& position,
              const Frame& frame, const CaptureOptions& options, std::uint64_t index,
-             CaptureStats* stats) {
+             CaptureStats* stats, std::vector<DirectionalLight>* lights) {
   const int n = options.resolution, k = options.strata;
   if (!is_valid_resolution(n))
     throw std::invalid_argument("capture resolution must be a power of two from 2 to 512");
@@ -116,16 +116,20 @@ Grid capture(const Environment& environment, const RayScene* scene, const Vec3& 
   }
 
   // Bright pixels: one shadow ray each (through the pixel's centre), their energy split into
-  // pieces that land exactly in the texel each falls in.
+  // pieces that land exactly in the texel each falls in, or (for compact lights kept apart)
+  // that add to the light's energy and direction.
   const int s = std::max(1, options.bright_subsamples);
   std::vector<Ray> shadow;
   struct Deposit {
     std::size_t ray, texel;
-    Color energy;  // radiance x weight
+    int light;     // compact light kept apart, or -1 for a texel
+    Color energy;  // texels: radiance x weight; lights: radiance x solid angle
+    Vec3 local;
   };
   std::vector<Deposit> deposits;
   for (const Environment::BrightPixel& b : environment.bright_pixels()) {
     const Vec3 centre = environment.direction(b.column + 0.5, b.row + 0.5);
+    const int light = lights ? b.light : -1;
     bool any = false;
     for (int sy = 0; sy < s; ++sy) {
       const double y0 = b.row + double(sy) / s, y1 = b.row + double(sy + 1) / s;
@@ -136,10 +140,12 @@ Grid capture(const Environment& environment, const RayScene* scene, const Vec3& 
         if (l.z() <= 0) continue;
         const Vec2 uv = cosine_hemisphere_to_square(l);
         const int tx = std::min(n - 1, int(uv.x() * n)), ty = std::min(n - 1, int(uv.y() * n));
-        const double weight = omega * l.z() / std::numbers::pi / texel_area;
+        const double weight = light >= 0 ? omega : omega * l.z() / std::numbers::pi / texel_area;
         deposits.push_back({shadow.size(),
                             std::size_t(ty) * n + tx,
-                            {b.excess[0] * weight, b.excess[1] * weight, b.excess[2] * weight}});
+                            light,
+                            {b.excess[0] * weight, b.excess[1] * weight, b.excess[2] * weight},
+                            l});
         any = true;
       }
     }
@@ -148,16 +154,51 @@ Grid capture(const Environment& environment, const RayScene* scene, const Vec3& 
   std::vector<RayHit> shadow_hits(shadow.size());
   if (scene && !shadow.empty()) scene->trace(shadow, shadow_hits);
   counts.rays += std::int64_t(shadow.size());
+  struct Seen {
+    Color energy{0, 0, 0};
+    Vec3 direction = Vec3::Zero();
+  };
+  std::vector<Seen> seen(lights ? environment.lights().size() : 0);
   for (const Deposit& d : deposits) {
     if (shadow_hits[d.ray].hit) continue;
+    if (d.light >= 0) {
+      Seen& light = seen[std::size_t(d.light)];
+      for (int c = 0; c < 3; ++c)
+        light.energy[c] += d.energy[c];
+      light.direction +=
+          (0.2126 * d.energy[0] + 0.7152 * d.energy[1] + 0.0722 * d.energy[2]) * d.local;
+      continue;
+    }
     for (int c = 0; c < 3; ++c)
       grid.at(0, c, int(d.texel % n), int(d.texel / n)) += float(d.energy[c]);
+  }
+  if (lights) {
+    lights->clear();
+    for (const Seen& light : seen) {
+      if (!(light.direction.norm() > 0)) continue;
+      const Vec3 w = light.direction.normalized();
+      lights->push_back({{w.x(), w.y(), w.z()}, light.energy});
+    }
   }
   if (stats) {
     stats->rays += counts.rays;
     stats->escaped += counts.escaped;
   }
   return grid;
+}
+
+void splat_lights(std::span<const DirectionalLight> lights, Grid& grid) {
+  const int n = grid.resolution;
+  for (const DirectionalLight& light : lights) {
+    const Vec3 w(light.direction[0], light.direction[1], light.direction[2]);
+    if (!(w.z() > 0)) continue;
+    const Vec2 uv = cosine_hemisphere_to_square(w);
+    const int tx = std::clamp(int(uv.x() * n), 0, n - 1),
+              ty = std::clamp(int(uv.y() * n), 0, n - 1);
+    const double weight = w.z() / std::numbers::pi * double(n) * n;
+    for (int c = 0; c < std::min(3, grid.channels); ++c)
+      grid.at(0, c, tx, ty) += float(light.energy[c] * weight);
+  }
 }
 
 CaptureSet capture_set(const Environment& environment, const RayScene* scene,
@@ -167,6 +208,7 @@ CaptureSet capture_set(const Environment& environment, const RayScene* scene,
   if (count == 0) throw std::invalid_argument("no points to capture");
   std::vector<Quadtree> trees(count);
   std::vector<Frame> frames(count);
+  std::vector<std::vector<DirectionalLight>> lights(count);
   std::atomic<std::size_t> done{0}, bytes{0};
   std::atomic<bool> stop{false}, too_large{false};
   std::atomic<long long> capture_ns{0}, projection_ns{0}, rays{0}, escaped{0};
@@ -183,12 +225,18 @@ CaptureSet capture_set(const Environment& environment, const RayScene* scene,
       frames[i] = Frame::from_normal(n);
       const auto t0 = std::chrono::steady_clock::now();
       CaptureStats stats;
-      const Grid grid =
-          capture(environment, scene, points[i].position, frames[i], options.capture, i, &stats);
+      const Grid grid = capture(environment, scene, points[i].position, frames[i], options.capture,
+                                i, &stats, options.separate_lights ? &lights[i] : nullptr);
       const auto t1 = std::chrono::steady_clock::now();
-      projector.project(grid, options.projection, trees[i]);
+      // A relative tolerance counts the lights kept apart in the capture's mean, as it would
+      // count them splatted into their texels.
+      ProjectionOptions projection = options.projection;
+      for (const DirectionalLight& light : lights[i])
+        for (int c = 0; c < 3; ++c)
+          projection.extra_mean[c] += light.energy[c] * light.direction[2] / std::numbers::pi;
+      projector.project(grid, projection, trees[i]);
       const auto t2 = std::chrono::steady_clock::now();
-      if (options.on_grid) options.on_grid(i, grid);
+      if (options.on_grid) options.on_grid(i, grid, lights[i]);
       capture_ns += std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - t0).count();
       projection_ns += std::chrono::duration_cast<std::chrono::nanoseconds>(t2 - t1).count();
       rays += stats.rays;
@@ -211,7 +259,12 @@ CaptureSet capture_set(const Environment& environment, const RayScene* scene,
     set.positions.push_back({p.x(), p.y(), p.z()});
     set.normals.push_back({frames[i].normal.x(), frames[i].normal.y(), frames[i].normal.z()});
     set.tangents.push_back({frames[i].tangent.x(), frames[i].tangent.y(), frames[i].tangent.z()});
+    if (options.separate_lights) {
+      set.light_offsets.push_back(std::uint32_t(set.lights.size()));
+      set.lights.insert(set.lights.end(), lights[i].begin(), lights[i].end());
+    }
   }
+  if (options.separate_lights) set.light_offsets.push_back(std::uint32_t(set.lights.size()));
   if (timings) {
     timings->capture_seconds += capture_ns * 1e-9;
     timings->projection_seconds += projection_ns * 1e-9;

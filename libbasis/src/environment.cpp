@@ -72,6 +72,69 @@ Environment::Environment(const Image& latlong, double rotate_z_degrees)
       }
       bright_.push_back(b);
     }
+  find_compact_lights(level, lum);
+}
+
+void Environment::find_compact_lights(double level, std::span<const double> luminance) {
+  // Candidates: bright pixels far above the smooth level, in row-major order (as bright_ is).
+  std::vector<std::size_t> candidates;  // indices into bright_
+  std::vector<std::size_t> keys;        // their pixel indices, ascending
+  for (std::size_t i = 0; i < bright_.size(); ++i) {
+    const std::size_t key = std::size_t(bright_[i].row) * width_ + bright_[i].column;
+    if (luminance[key] >= kLightContrast * level) {
+      candidates.push_back(i);
+      keys.push_back(key);
+    }
+  }
+  // Connected groups (8-neighbours, columns wrap around) by union-find.
+  std::vector<std::size_t> parent(candidates.size());
+  for (std::size_t i = 0; i < parent.size(); ++i)
+    parent[i] = i;
+  auto root = [&](std::size_t i) {
+    while (parent[i] != i)
+      i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  for (std::size_t i = 0; i < candidates.size(); ++i) {
+    const BrightPixel& b = bright_[candidates[i]];
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int row = b.row + dy, column = (b.column + dx + width_) % width_;
+        if (row < 0 || row >= height_) continue;
+        const std::size_t key = std::size_t(row) * width_ + column;
+        const auto it = std::lower_bound(keys.begin(), keys.end(), key);
+        if (it != keys.end() && *it == key) parent[root(i)] = root(std::size_t(it - keys.begin()));
+      }
+  }
+  // Each group's energy and centre; groups within the radius limit become lights.
+  std::vector<std::vector<std::size_t>> groups(candidates.size());
+  for (std::size_t i = 0; i < candidates.size(); ++i)
+    groups[root(i)].push_back(candidates[i]);
+  const double max_radius = kMaxLightRadiusDegrees * std::numbers::pi / 180;
+  for (const std::vector<std::size_t>& group : groups) {
+    if (group.empty()) continue;
+    CompactLight light{Vec3::Zero(), 0, {0, 0, 0}};
+    for (const std::size_t i : group) {
+      const BrightPixel& b = bright_[i];
+      const double omega = row_solid_angle_[b.row];
+      for (int c = 0; c < 3; ++c)
+        light.energy[c] += b.excess[c] * omega;
+      const double weight =
+          (0.2126 * b.excess[0] + 0.7152 * b.excess[1] + 0.0722 * b.excess[2]) * omega;
+      light.direction += weight * direction(b.column + 0.5, b.row + 0.5);
+    }
+    if (!(light.direction.norm() > 0)) continue;
+    light.direction.normalize();
+    for (const std::size_t i : group) {
+      const Vec3 d = direction(bright_[i].column + 0.5, bright_[i].row + 0.5);
+      light.radius = std::max(light.radius,
+                              std::atan2(light.direction.cross(d).norm(), light.direction.dot(d)));
+    }
+    if (light.radius > max_radius) continue;
+    for (const std::size_t i : group)
+      bright_[i].light = int(lights_.size());
+    lights_.push_back(light);
+  }
 }
 
 Environment Environment::constant(const Color& radiance) {

@@ -64,6 +64,19 @@ Image draw_tree(const QuadtreeView& tree, const PictureOptions& options) {
     }
   };
   paint(paint, 0, 0, 0, 1);
+  // Markers: rings two pixels wide of radius size / 40.
+  const double radius = std::max(3.0, size / 40.0);
+  for (const auto& m : options.markers) {
+    const double cx = m[0] * size, cy = m[1] * size;
+    for (int y = std::max(0, int(cy - radius - 2)); y < std::min(size, int(cy + radius + 3)); ++y)
+      for (int x = std::max(0, int(cx - radius - 2)); x < std::min(size, int(cx + radius + 3));
+           ++x) {
+        const double d = std::hypot(x + 0.5 - cx, y + 0.5 - cy);
+        if (std::abs(d - radius) > 1) continue;
+        image.at(x, y, 0) = image.at(x, y, 1) = 1.0f;
+        image.at(x, y, 2) = 0.1f;
+      }
+  }
   return image;
 }
 

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace basis {
 
@@ -203,7 +204,7 @@ void QuadtreeProjector::project(const Grid& grid, const ProjectionOptions& optio
   // Tolerances: group 0's per channel; further groups' a multiple of their channel's.
   std::vector<double> means(channels);
   for (int c = 0; c < channels; ++c)
-    means[c] = value_planes_[c][0];
+    means[c] = value_planes_[c][0] + options.extra_mean[std::size_t(c)];
   std::vector<float> tol = absolute_tolerances(options, means);
   for (int p = channels; p < bounded; ++p)
     tol.push_back(float(options.group_tolerance_scale * tol[p % channels]));
@@ -290,7 +291,10 @@ Grid reconstruct(const QuadtreeView& tree) {
   return grid;
 }
 
-float evaluate(const QuadtreeView& tree, double u, double v, int group, int channel) {
+namespace {
+
+// The leaf quadrant holding (u, v): its node and quadrant.
+std::pair<int, int> leaf_at(const QuadtreeView& tree, double u, double v) {
   int node = 0;
   double u0 = 0, v0 = 0, size = 1;
   for (;;) {
@@ -298,11 +302,23 @@ float evaluate(const QuadtreeView& tree, double u, double v, int group, int chan
     const int qx = u >= u0 + size, qy = v >= v0 + size;
     const int q = qx + 2 * qy;
     const int child = tree.child(node, q);
-    if (!child) return tree.value(node, group, channel, q);
+    if (!child) return {node, q};
     u0 += qx * size;
     v0 += qy * size;
     node = child;
   }
+}
+
+}  // namespace
+
+float evaluate(const QuadtreeView& tree, double u, double v, int group, int channel) {
+  const auto [node, quadrant] = leaf_at(tree, u, v);
+  return tree.value(node, group, channel, quadrant);
+}
+
+float evaluate_error(const QuadtreeView& tree, double u, double v, int channel) {
+  const auto [node, quadrant] = leaf_at(tree, u, v);
+  return tree.error(node, channel, quadrant);
 }
 
 double integrate(const QuadtreeView& tree, int group, int channel) {

@@ -1,6 +1,12 @@
 #include "basis/shading.h"
 
+#include <algorithm>
+#include <numbers>
+#include <optional>
 #include <stdexcept>
+#include <vector>
+
+#include "basis/hemisphere.h"
 
 namespace basis {
 
@@ -31,9 +37,96 @@ Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, st
                   const ShadingOptions& options) {
   if (!(options.wo.z() >= 0)) throw std::invalid_argument("outgoing direction below the horizon");
   const QuadtreeView radiance = captures.trees.tree(k);
-  if (!options.normal) return reflect(table, radiance, options.wo.normalized());
-  const Tilt tilt = capture_tilt(captures, k, *options.normal);
-  return reflect_tilted(table, radiance, options.wo.normalized(), tilt, options.tilt_mode);
+  const Vec3 wo = options.wo.normalized();
+  Convolution result;
+  std::optional<Frame> record, shading;
+  if (!options.normal) {
+    result = reflect(table, radiance, wo);
+  } else {
+    const Tilt tilt = capture_tilt(captures, k, *options.normal);
+    result = reflect_tilted(table, radiance, wo, tilt, options.tilt_mode);
+    if (options.tilt_mode != TiltCompensation::none) {
+      record = capture_frame(captures, k);
+      shading = tilted_frame(*record, tilt);
+    }
+  }
+  const auto lights = captures.lights_of(k);
+  if (lights.empty()) return result;
+  const auto taps = table_taps(table.wo_resolution, wo);
+  const int table_channels = table.trees.shape().channels;
+  for (const DirectionalLight& light : lights) {
+    Vec3 wi = vec(light.direction);
+    if (shading) wi = shading->to_local(record->to_world(wi));
+    if (!(wi.z() > 0)) continue;
+    Color f{0, 0, 0}, error{0, 0, 0};
+    if (options.light_brdf) {
+      f = evaluate(*options.light_brdf, wi, wo);
+    } else {
+      const Vec2 uv = cosine_hemisphere_to_square(wi);
+      for (const TableTap& tap : taps)
+        for (int c = 0; c < 3; ++c) {
+          const QuadtreeView entry = table.entry(tap.i, tap.j);
+          const int channel = std::min(c, table_channels - 1);
+          f[c] += tap.weight * evaluate(entry, uv.x(), uv.y(), 0, channel);
+          error[c] += tap.weight * evaluate_error(entry, uv.x(), uv.y(), channel);
+        }
+    }
+    for (int c = 0; c < 3; ++c) {
+      result.value[c] += float(f[c] * light.energy[c] * wi.z());
+      result.bound[c] += float(error[c] * light.energy[c] * wi.z());
+    }
+  }
+  return result;
+}
+
+Convolution capture_product(const CaptureSetView& a, const CaptureSetView& b, std::size_t k) {
+  const QuadtreeView ta = a.trees.tree(a.trees.size() == 1 ? 0 : k);
+  const QuadtreeView tb = b.trees.tree(b.trees.size() == 1 ? 0 : k);
+  Convolution result = convolve(ta, tb);
+  for (int c = 0; c < 3; ++c) {
+    result.value[c] *= float(std::numbers::pi);
+    result.bound[c] *= float(std::numbers::pi);
+  }
+  const auto la = a.lights_of(k), lb = b.lights_of(k);
+  if (la.empty() && lb.empty()) return result;
+  const int n = ta.shape().resolution;
+  if (tb.shape().resolution != n)
+    throw std::invalid_argument("captures with directional lights multiply at one resolution");
+  // A light stands for energy * cos / (pi * texel area) over the texel it falls in.
+  struct Splat {
+    int x, y;
+    Color weight;  // energy * cos
+  };
+  auto splats = [&](std::span<const DirectionalLight> lights) {
+    std::vector<Splat> out;
+    for (const DirectionalLight& l : lights) {
+      const Vec2 uv = cosine_hemisphere_to_square(vec(l.direction));
+      out.push_back({std::clamp(int(uv.x() * n), 0, n - 1),
+                     std::clamp(int(uv.y() * n), 0, n - 1),
+                     {l.energy[0] * l.direction[2], l.energy[1] * l.direction[2],
+                      l.energy[2] * l.direction[2]}});
+    }
+    return out;
+  };
+  const std::vector<Splat> sa = splats(la), sb = splats(lb);
+  auto against_tree = [&](const std::vector<Splat>& lights, const QuadtreeView& tree) {
+    for (const Splat& s : lights) {
+      const double u = (s.x + 0.5) / n, v = (s.y + 0.5) / n;
+      for (int c = 0; c < 3; ++c) {
+        const int channel = std::min(c, tree.shape().channels - 1);
+        result.value[c] += float(s.weight[c] * evaluate(tree, u, v, 0, channel));
+        result.bound[c] += float(s.weight[c] * evaluate_error(tree, u, v, channel));
+      }
+    }
+  };
+  against_tree(sa, tb);
+  against_tree(sb, ta);
+  for (const Splat& p : sa)
+    for (const Splat& q : sb)
+      if (p.x == q.x && p.y == q.y)
+        for (int c = 0; c < 3; ++c)
+          result.value[c] += float(p.weight[c] * q.weight[c] * double(n) * n / std::numbers::pi);
+  return result;
 }
 
 }  // namespace basis

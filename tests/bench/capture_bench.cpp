@@ -1,13 +1,16 @@
-// Capture kernels: Embree occlusion rays on a mesh of about 70k triangles, and whole captures
-// (tracing, environment filtering, projection) at 32 x 32 texels.
+// Capture kernels: Embree occlusion rays on a mesh of about 70k triangles, whole captures
+// (tracing, environment filtering, projection) at 32 x 32 texels, and shading a capture whose
+// sun is splatted or kept apart.
 #include <benchmark/benchmark.h>
 
 #include <cmath>
 #include <memory>
 #include <numbers>
 
+#include "basis/brdf_table.h"
 #include "basis/capture.h"
 #include "basis/quadtree.h"
+#include "basis/shading.h"
 #include "basis/trace.h"
 
 namespace basis::bench {
@@ -117,6 +120,31 @@ BENCHMARK(BM_CaptureProjection)
     ->Arg(32)
     ->Arg(64)
     ->Unit(benchmark::kMicrosecond);
+
+// Shading one capture of the sky at 32 x 32 with a Phong 100 table (9 x 9 entries): the sun
+// splatted into its texel, or kept apart and shaded with the BRDF or the table's texels.
+void BM_ShadeSun(benchmark::State& state) {
+  static const Brdf phong = Phong{{0.5, 0.5, 0.5}, {0.4, 0.4, 0.4}, 100};
+  static const BrdfTable table =
+      tabulate_brdf(phong, {.wo_resolution = 9, .wi_resolution = 32, .tilt_derivatives = false});
+  const bool apart = state.range(0) > 0;
+  const CapturePoint point{Vec3::Zero(), Vec3(0.1, 0.2, 1).normalized()};
+  const CaptureSet set =
+      capture_set(sky(), nullptr, {&point, 1},
+                  {.capture = {.resolution = 32, .strata = 2}, .separate_lights = apart});
+  ShadingOptions options{.wo = Vec3(0.3, -0.2, 0.93).normalized()};
+  if (state.range(0) == 1) options.light_brdf = &phong;
+  for (auto _ : state)
+    benchmark::DoNotOptimize(shade(table.view(), set.view(), 0, options));
+  state.counters["lights"] = double(set.lights.size());
+  state.counters["capture_nodes"] = set.trees.view().tree(0).node_count();
+}
+BENCHMARK(BM_ShadeSun)
+    ->Name("shade/phong100/32")
+    ->ArgName("sun_splatted0_brdf1_table2")
+    ->Arg(0)
+    ->Arg(1)
+    ->Arg(2);
 
 }  // namespace
 }  // namespace basis::bench

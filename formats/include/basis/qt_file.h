@@ -17,7 +17,8 @@
 
 namespace basis {
 
-inline constexpr std::uint32_t kQtFormatVersion = 1;
+// Version 2 added the capture sets' directional lights; version 1 files read as before.
+inline constexpr std::uint32_t kQtFormatVersion = 2;
 
 // Limits checked before anything is allocated from a file's claims.
 inline constexpr std::uint64_t kQtMaxFileBytes = (std::uint64_t(1) << 31) - 1;  // FlatBuffers

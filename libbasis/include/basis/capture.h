@@ -55,11 +55,17 @@ struct CaptureStats {
 // jittered point; an escaping ray contributes the environment's smooth part averaged over the
 // stratum's footprint, a hit its surface's emission. Each bright environment pixel is split
 // into bright_subsamples^2 pieces whose energy goes exactly into the texel each falls in, if a
-// shadow ray towards the pixel's centre escapes. With no scene nothing occludes. `index`
-// decorrelates jitter between points. Deterministic.
+// shadow ray towards the pixel's centre escapes. With `lights`, the pieces of the
+// environment's compact lights go there instead, one DirectionalLight per light seen (energy
+// of its visible pieces above the horizon, direction their energy-weighted mean). With no
+// scene nothing occludes. `index` decorrelates jitter between points. Deterministic.
 Grid capture(const Environment& environment, const RayScene* scene, const Vec3& position,
              const Frame& frame, const CaptureOptions& options, std::uint64_t index = 0,
-             CaptureStats* stats = nullptr);
+             CaptureStats* stats = nullptr, std::vector<DirectionalLight>* lights = nullptr);
+
+// Adds each light's energy to the texel its direction falls in (as a light's pieces would be
+// splatted without `lights`): the grid of texel averages such a capture stands for.
+void splat_lights(std::span<const DirectionalLight> lights, Grid& grid);
 
 // A point to capture at: position and unit normal (its frame is Frame::from_normal).
 struct CapturePoint {
@@ -76,10 +82,14 @@ std::vector<CapturePoint> read_points(const std::string& path);
 
 struct CaptureSetOptions {
   CaptureOptions capture;
+  // Keep the environment's compact lights apart as directions (capture's `lights`) instead of
+  // splatting them into texels.
+  bool separate_lights = true;
   ProjectionOptions projection;
-  // Called with each capture's texel grid before projection (from worker threads), e.g. to
-  // write it out; may be empty.
-  std::function<void(std::size_t index, const Grid& grid)> on_grid;
+  // Called with each capture's texel grid before projection and the lights kept apart (from
+  // worker threads), e.g. to write it out; may be empty.
+  std::function<void(std::size_t index, const Grid& grid, std::span<const DirectionalLight> lights)>
+      on_grid;
   // Capturing stops with std::length_error once the trees pass this size (a .qt file holds at
   // most 2 GiB), before memory runs out.
   std::size_t max_bytes = std::size_t(2000) << 20;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -12,15 +13,31 @@ namespace basis {
 
 using Point3 = std::array<double, 3>;
 
+// A light much smaller than a capture's texels (a sun), kept apart from the capture's tree:
+// its unit direction in the capture's local frame (z > 0) and its energy, the integral of its
+// radiance over the solid angle it covers, per channel. It adds f(direction, wo) energy
+// direction.z to the radiance reflected towards wo.
+struct DirectionalLight {
+  Point3 direction;
+  Point3 energy;
+};
+
 // Capture k: position, unit normal and unit tangent (bitangent = normal x tangent) in world
-// coordinates, and tree k of `trees`.
+// coordinates, tree k of `trees`, and lights [light_offsets[k], light_offsets[k + 1]) of
+// `lights` (light_offsets is empty when no capture keeps lights apart).
 struct CaptureSetView {
   std::span<const Point3> positions;
   std::span<const Point3> normals;
   std::span<const Point3> tangents;
   TreeSetView trees;
+  std::span<const DirectionalLight> lights;
+  std::span<const std::uint32_t> light_offsets;
 
   std::size_t size() const { return positions.size(); }
+  std::span<const DirectionalLight> lights_of(std::size_t k) const {
+    if (light_offsets.empty()) return {};
+    return lights.subspan(light_offsets[k], light_offsets[k + 1] - light_offsets[k]);
+  }
 };
 
 struct CaptureSet {
@@ -28,8 +45,12 @@ struct CaptureSet {
   std::vector<Point3> normals;
   std::vector<Point3> tangents;
   TreeSet trees;
+  std::vector<DirectionalLight> lights;
+  std::vector<std::uint32_t> light_offsets;
 
-  CaptureSetView view() const { return {positions, normals, tangents, trees.view()}; }
+  CaptureSetView view() const {
+    return {positions, normals, tangents, trees.view(), lights, light_offsets};
+  }
 };
 
 }  // namespace basis

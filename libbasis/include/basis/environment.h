@@ -1,6 +1,6 @@
 // Distant lighting from a latitude-longitude radiance map (z up, the convention of latlong.h):
-// point lookups, and the bright pixels (a sun) that captures integrate exactly instead of
-// sampling them.
+// point lookups, the bright pixels that captures integrate exactly instead of sampling them,
+// and the compact lights (a sun) among them that captures can keep apart as directions.
 #pragma once
 
 #include <span>
@@ -45,9 +45,22 @@ class Environment {
 
   struct BrightPixel {
     int row, column;
-    Color excess;  // radiance above the smooth part's level
+    Color excess;    // radiance above the smooth part's level
+    int light = -1;  // the compact light it belongs to, -1 for none
   };
   std::span<const BrightPixel> bright_pixels() const { return bright_; }
+
+  // A compact light: a connected group of bright pixels at least kLightContrast times the
+  // smooth level, all within kMaxLightRadiusDegrees of their energy-weighted centre. Much
+  // smaller than a capture's texels near the horizon, it is kept apart as a direction.
+  static constexpr double kLightContrast = 4;
+  static constexpr double kMaxLightRadiusDegrees = 3;
+  struct CompactLight {
+    Vec3 direction;  // world, unit: the centre of its excess energy
+    double radius;   // radians: largest angle from the centre to a pixel's centre
+    Color energy;    // integral of the excess radiance over its pixels' solid angle
+  };
+  std::span<const CompactLight> lights() const { return lights_; }
   // World direction of map position (column x, row y) in pixels, rotation applied.
   Vec3 direction(double x, double y) const;
   // Solid angle of the map band between rows y0 and y1 (fractional) and columns spanning dx.
@@ -60,6 +73,7 @@ class Environment {
  private:
   Environment() = default;
   Color pixel(int row, int column) const;
+  void find_compact_lights(double level, std::span<const double> luminance);
 
   int width_ = 0, height_ = 0;
   double rotation_ = 0;                  // radians
@@ -67,6 +81,7 @@ class Environment {
   std::vector<float> smooth_;            // RGB rows, bright excess removed
   std::vector<double> row_solid_angle_;  // per pixel of each row
   std::vector<BrightPixel> bright_;
+  std::vector<CompactLight> lights_;
   EnvironmentRepairs repairs_;
   bool constant_ = false;
 };

@@ -14,6 +14,9 @@ struct PictureOptions {
   int size = 512;             // pixels per side
   int group = 0;              // channel group to show
   bool outline_cells = true;  // draw the leaf cells' borders
+  // Points (u, v) of the unit square to circle in yellow, such as a capture's directional
+  // lights.
+  std::span<const std::array<double, 2>> markers;
 };
 
 // An RGB display image (values in [0,1]) of one tree: tone-mapped by the function's mean, a

@@ -2,6 +2,7 @@
 // square whose nodes hold the averages of their four quadrants, cut where a bound is met.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -96,6 +97,9 @@ struct ProjectionOptions {
   // Both bound every texel; the cut and the certified convolution bound use the chosen one.
   enum class Bound { exact, paper };
   Bound bound = Bound::exact;
+  // Added to each channel's mean before a relative tolerance is applied: energy that belongs
+  // to the function but lies outside the grid (a capture's directional lights).
+  std::array<double, 3> extra_mean{0, 0, 0};
 };
 
 // Builds and cuts quadtrees (section 2.2): bottom-up averages and error bounds (exact, or the
@@ -135,6 +139,10 @@ Grid reconstruct(const QuadtreeView& tree);
 
 // Value of group g, channel c at (u, v) in [0,1]^2: the average of the leaf cell holding it.
 float evaluate(const QuadtreeView& tree, double u, double v, int group = 0, int channel = 0);
+
+// Bound on |texel - evaluate(tree, u, v, 0, c)| for the texel holding (u, v): the stored
+// error of the leaf cell holding it.
+float evaluate_error(const QuadtreeView& tree, double u, double v, int channel = 0);
 
 // Integral over [0,1]^2 of group g, channel c (equal to the mean of the source grid).
 double integrate(const QuadtreeView& tree, int group = 0, int channel = 0);

@@ -19,6 +19,9 @@ struct ShadingOptions {
   // its normal to this one, and the tilt is compensated as `tilt_mode` says.
   std::optional<Vec3> normal;
   TiltCompensation tilt_mode = TiltCompensation::compensated;
+  // f for the captures' directional lights: this BRDF (the one the table tabulates) at the
+  // light's exact direction when given, else the table's entries at the texel it falls in.
+  const Brdf* light_brdf = nullptr;
 };
 
 // The frame of capture k (tangent, bitangent = normal x tangent, normal).
@@ -27,8 +30,19 @@ Frame capture_frame(const CaptureSetView& captures, std::size_t k);
 // The tilt of a surface of normal `normal` (world) against capture k's frame.
 Tilt capture_tilt(const CaptureSetView& captures, std::size_t k, const Vec3& normal);
 
-// Reflected radiance (pi included) at capture k, with the certified bound of the lookup.
+// Reflected radiance (pi included) at capture k, with the certified bound of the lookup: the
+// table convolved with the capture's tree, plus f(wi, wo) E wi.z for each of its directional
+// lights. With --normal the lights turn with the surface exactly (no compensation needed;
+// lights below the tilted horizon drop out), except in TiltCompensation::none. A light's bound
+// is 0 with light_brdf, else the entries' leaf error bounds at its texel.
 Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, std::size_t k,
                   const ShadingOptions& options);
+
+// The integral of L_a L_b cos over the hemisphere (pi times the product's integral over the
+// cosine-weighted map) at capture k of two sets of one resolution, each capture's directional
+// lights standing in the texel they fall in (as splat_lights would put them); the bound adds,
+// for each light, its weight times the other tree's leaf error bound there. Throws
+// std::invalid_argument when sets with lights differ in resolution.
+Convolution capture_product(const CaptureSetView& a, const CaptureSetView& b, std::size_t k);
 
 }  // namespace basis
