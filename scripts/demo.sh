@@ -45,7 +45,7 @@ $bin/qtinfo out/captures.qt --png out/capture.png --index 0 >out/captures_info.t
   echo "ggx:    $(cat out/ggx_time.txt)"
   echo
   grep -E '^(kind|trees|nodes|storage|tilt)' out/phong_info.txt | sed 's/^/phong.qt     /'
-  grep -E '^(kind|trees|nodes|storage)' out/captures_info.txt | sed 's/^/captures.qt  /'
+  grep -E '^(kind|trees|nodes|storage|lights)' out/captures_info.txt | sed 's/^/captures.qt  /'
   echo
   echo "first points (index, r, g, b, bounds):"
   sed -n 2,4p out/phong_radiance.csv

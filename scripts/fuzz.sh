@@ -17,13 +17,18 @@ for target in "${targets[@]}"; do
   mkdir -p "$scratch/$target"
   cp tests/fuzz/corpus/$target/* "$scratch/$target/" 2>/dev/null || true
 done
-# Seeds made now, so they follow the current format: a tiny table and a tiny capture set.
+# Seeds made now, so they follow the current format: a tiny table and tiny capture sets.
 if [ -x build/bin/brdf2qt ] && [ -x build/bin/capture2qt ]; then
   echo '{"model": "phong", "kd": 0.5, "ks": 0.4, "exponent": 20, "table": {"wo_res": 2, "wi_res": 4}}' \
     >"$scratch/tiny.json"
   build/bin/brdf2qt "$scratch/tiny.json" -o "$scratch/fuzz_qt_file/table.qt" >/dev/null
   build/bin/capture2qt --env-constant 1,0.8,0.6 --scene data/scene.obj --sample 3 --res 8 -q \
     -o "$scratch/fuzz_qt_file/captures.qt"
+  sunrise=/usr/share/blender/datafiles/studiolights/world/sunrise.exr
+  if [ -f "$sunrise" ]; then  # a capture set that keeps a sun apart (format version 2)
+    build/bin/capture2qt --env "$sunrise" --points <(printf '0,0,0,0.3,-0.6,0.74\n0,0,0,0,0,1\n') \
+      --res 8 -q -o "$scratch/fuzz_qt_file/sun.qt"
+  fi
 fi
 # The first input byte picks the reader in fuzz_measured: even bytes mean RGL.
 rgl=$(ls -S ../shared/data/rgl-bsdf/*.bsdf 2>/dev/null | tail -1 || true)

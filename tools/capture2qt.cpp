@@ -99,8 +99,8 @@ int main(int argc, char** argv) {
   app.add_option("--seed", seed, "seed of the jitter and of --sample (default 1)");
   app.add_option("--res", res,
                  "texels per side of each capture, a power of two up to 512 (default 128: "
-                 "glossy reflections of a sun err by up to 8 % at 64, under 2 % at 128, see "
-                 "README)");
+                 "with the sun kept apart, glossy reflections of a low sun err by up to 1.3 % at "
+                 "64, 3.3 % at 32; splatted, up to 6 % at 64 and 5 % at 128; see README)");
   app.add_option("--spp", spp,
                  "rays per texel, a square number: strata per texel (default 4, up to 4096)")
       ->check(CLI::Range(1, 4096));

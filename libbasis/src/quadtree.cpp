@@ -6,7 +6,6 @@
 #include <cstring>
 #include <stdexcept>
 #include <string>
-#include <utility>
 
 namespace basis {
 
@@ -291,10 +290,7 @@ Grid reconstruct(const QuadtreeView& tree) {
   return grid;
 }
 
-namespace {
-
-// The leaf quadrant holding (u, v): its node and quadrant.
-std::pair<int, int> leaf_at(const QuadtreeView& tree, double u, double v) {
+LeafQuadrant find_leaf(const QuadtreeView& tree, double u, double v) {
   int node = 0;
   double u0 = 0, v0 = 0, size = 1;
   for (;;) {
@@ -309,16 +305,9 @@ std::pair<int, int> leaf_at(const QuadtreeView& tree, double u, double v) {
   }
 }
 
-}  // namespace
-
 float evaluate(const QuadtreeView& tree, double u, double v, int group, int channel) {
-  const auto [node, quadrant] = leaf_at(tree, u, v);
-  return tree.value(node, group, channel, quadrant);
-}
-
-float evaluate_error(const QuadtreeView& tree, double u, double v, int channel) {
-  const auto [node, quadrant] = leaf_at(tree, u, v);
-  return tree.error(node, channel, quadrant);
+  const LeafQuadrant leaf = find_leaf(tree, u, v);
+  return tree.value(leaf.node, group, channel, leaf.quadrant);
 }
 
 double integrate(const QuadtreeView& tree, int group, int channel) {

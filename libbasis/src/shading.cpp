@@ -63,13 +63,15 @@ Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, st
       f = evaluate(*options.light_brdf, wi, wo);
     } else {
       const Vec2 uv = cosine_hemisphere_to_square(wi);
-      for (const TableTap& tap : taps)
+      for (const TableTap& tap : taps) {
+        const QuadtreeView entry = table.entry(tap.i, tap.j);
+        const LeafQuadrant leaf = find_leaf(entry, uv.x(), uv.y());
         for (int c = 0; c < 3; ++c) {
-          const QuadtreeView entry = table.entry(tap.i, tap.j);
           const int channel = std::min(c, table_channels - 1);
-          f[c] += tap.weight * evaluate(entry, uv.x(), uv.y(), 0, channel);
-          error[c] += tap.weight * evaluate_error(entry, uv.x(), uv.y(), channel);
+          f[c] += tap.weight * entry.value(leaf.node, 0, channel, leaf.quadrant);
+          error[c] += tap.weight * entry.error(leaf.node, channel, leaf.quadrant);
         }
+      }
     }
     for (int c = 0; c < 3; ++c) {
       result.value[c] += float(f[c] * light.energy[c] * wi.z());
@@ -111,11 +113,11 @@ Convolution capture_product(const CaptureSetView& a, const CaptureSetView& b, st
   const std::vector<Splat> sa = splats(la), sb = splats(lb);
   auto against_tree = [&](const std::vector<Splat>& lights, const QuadtreeView& tree) {
     for (const Splat& s : lights) {
-      const double u = (s.x + 0.5) / n, v = (s.y + 0.5) / n;
+      const LeafQuadrant leaf = find_leaf(tree, (s.x + 0.5) / n, (s.y + 0.5) / n);
       for (int c = 0; c < 3; ++c) {
         const int channel = std::min(c, tree.shape().channels - 1);
-        result.value[c] += float(s.weight[c] * evaluate(tree, u, v, 0, channel));
-        result.bound[c] += float(s.weight[c] * evaluate_error(tree, u, v, channel));
+        result.value[c] += float(s.weight[c] * tree.value(leaf.node, 0, channel, leaf.quadrant));
+        result.bound[c] += float(s.weight[c] * tree.error(leaf.node, channel, leaf.quadrant));
       }
     }
   };

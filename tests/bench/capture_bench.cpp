@@ -125,14 +125,20 @@ BENCHMARK(BM_CaptureProjection)
 // splatted into its texel, or kept apart and shaded with the BRDF or the table's texels.
 void BM_ShadeSun(benchmark::State& state) {
   static const Brdf phong = Phong{{0.5, 0.5, 0.5}, {0.4, 0.4, 0.4}, 100};
-  static const BrdfTable table =
-      tabulate_brdf(phong, {.wo_resolution = 9, .wi_resolution = 32, .tilt_derivatives = false});
-  const bool apart = state.range(0) > 0;
+  static const BrdfTable table = [] {
+    BrdfTableOptions o;
+    o.wo_resolution = 9;
+    o.wi_resolution = 32;
+    o.tilt_derivatives = false;
+    return tabulate_brdf(phong, o);
+  }();
   const CapturePoint point{Vec3::Zero(), Vec3(0.1, 0.2, 1).normalized()};
-  const CaptureSet set =
-      capture_set(sky(), nullptr, {&point, 1},
-                  {.capture = {.resolution = 32, .strata = 2}, .separate_lights = apart});
-  ShadingOptions options{.wo = Vec3(0.3, -0.2, 0.93).normalized()};
+  CaptureSetOptions capture_options;
+  capture_options.capture.resolution = 32;
+  capture_options.separate_lights = state.range(0) > 0;
+  const CaptureSet set = capture_set(sky(), nullptr, {&point, 1}, capture_options);
+  ShadingOptions options;
+  options.wo = Vec3(0.3, -0.2, 0.93).normalized();
   if (state.range(0) == 1) options.light_brdf = &phong;
   for (auto _ : state)
     benchmark::DoNotOptimize(shade(table.view(), set.view(), 0, options));

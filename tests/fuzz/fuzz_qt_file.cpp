@@ -1,4 +1,5 @@
-// libFuzzer target: .qt buffers are loaded and verified; whatever loads must convolve.
+// libFuzzer target: .qt buffers are loaded and verified; whatever loads must convolve, and a
+// capture set's lights must be readable and valid.
 #include <cstddef>
 #include <cstdint>
 
@@ -19,6 +20,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       const basis::BrdfTableView table = file.brdf_table();
       for (std::size_t i = 0; i < table.tilt.size(); ++i)
         basis::convolve_groups(table.tilt.tree(i), probe.view());
+    }
+    if (file.kind() == basis::QtKind::capture_set) {
+      // Every capture's lights are readable and their values were verified.
+      const basis::CaptureSetView captures = file.captures();
+      for (std::size_t k = 0; k < captures.size(); ++k)
+        for (const basis::DirectionalLight& light : captures.lights_of(k))
+          if (!(light.direction[2] > 0) || !(light.energy[0] >= 0)) __builtin_trap();
     }
   } catch (const basis::FileError&) {
   }

@@ -140,9 +140,11 @@ Grid reconstruct(const QuadtreeView& tree);
 // Value of group g, channel c at (u, v) in [0,1]^2: the average of the leaf cell holding it.
 float evaluate(const QuadtreeView& tree, double u, double v, int group = 0, int channel = 0);
 
-// Bound on |texel - evaluate(tree, u, v, 0, c)| for the texel holding (u, v): the stored
-// error of the leaf cell holding it.
-float evaluate_error(const QuadtreeView& tree, double u, double v, int channel = 0);
+// The leaf quadrant holding (u, v) in [0,1]^2, for reading its values and error bounds.
+struct LeafQuadrant {
+  int node, quadrant;
+};
+LeafQuadrant find_leaf(const QuadtreeView& tree, double u, double v);
 
 // Integral over [0,1]^2 of group g, channel c (equal to the mean of the source grid).
 double integrate(const QuadtreeView& tree, int group = 0, int channel = 0);
