@@ -192,9 +192,9 @@ TEST(Capture, LightsKeptApartCarryWhatTheTexelsWouldHold) {
       const Grid apart =
           capture(env, nullptr, Vec3::Zero(), frame, {.resolution = res}, 0, nullptr, &lights);
       const Grid splatted = capture(env, nullptr, Vec3::Zero(), frame, {.resolution = res});
-      double seen = 0;
+      std::size_t seen = 0;
       for (const auto& light : env.lights())
-        seen += frame.to_local(light.direction).z() > 0;
+        seen += frame.to_local(light.direction).z() > 0 ? 1 : 0;
       ASSERT_EQ(lights.size(), seen) << res;
       for (const DirectionalLight& l : lights) {
         const Vec3 w(l.direction[0], l.direction[1], l.direction[2]);
