@@ -8,6 +8,8 @@
 
 #include "basis/brdf_table.h"
 #include "basis/capture.h"
+#include "basis/hemisphere.h"
+#include "basis/shading.h"
 #include "basis/trace.h"
 #include "support/environments.h"
 
@@ -175,7 +177,7 @@ TEST(Capture, CompactLightsAreFoundWithTheirEnergyAndDirection) {
                   0.01 * excess * pixel_solid_angle(row));
       EXPECT_LT(light.energy[c], excess * pixel_solid_angle(row));
     }
-    EXPECT_LT(light.radius, 1e-9);
+    EXPECT_NEAR(light.radius, std::sqrt(0.5) * std::numbers::pi / 128, 1e-9);  // half a pixel
   }
   for (const auto& b : env.bright_pixels())
     EXPECT_EQ(b.light >= 0, (b.column == 57 && b.row == 40) || (b.column == 150 && b.row == 30))
@@ -211,6 +213,78 @@ TEST(Capture, LightsKeptApartCarryWhatTheTexelsWouldHold) {
         EXPECT_NEAR(sum.mean(0, c), splatted.mean(0, c), 2e-3 * splatted.mean(0, c)) << res;
         EXPECT_NEAR(std::numbers::pi * sum.mean(0, c), expected[c], 0.01 * expected[c]) << res;
       }
+      // Where: the same rays made both captures, so the splatted one minus the one with lights
+      // apart is the lights' pieces, which lie in the texel of the light's direction or its
+      // neighbours (a light's pixel may straddle a border) and nowhere else.
+      std::vector<double> near(std::size_t(res) * res, 0);
+      for (const DirectionalLight& l : lights) {
+        const Vec2 uv =
+            cosine_hemisphere_to_square(Vec3(l.direction[0], l.direction[1], l.direction[2]));
+        const int tx = int(uv.x() * res), ty = int(uv.y() * res);
+        double pieces = 0;
+        for (int y = std::max(0, ty - 1); y <= std::min(res - 1, ty + 1); ++y)
+          for (int x = std::max(0, tx - 1); x <= std::min(res - 1, tx + 1); ++x) {
+            pieces += splatted.at(0, 1, x, y) - apart.at(0, 1, x, y);
+            near[std::size_t(y) * res + x] = 1;
+          }
+        // Texel energy to light energy: times texel area and pi, over the cosine.
+        EXPECT_NEAR(pieces * std::numbers::pi / (res * res) / l.direction[2], l.energy[1],
+                    0.01 * l.energy[1])
+            << res;
+      }
+      for (int y = 0; y < res; ++y)
+        for (int x = 0; x < res; ++x)
+          if (!near[std::size_t(y) * res + x]) {
+            EXPECT_NEAR(splatted.at(0, 1, x, y), apart.at(0, 1, x, y),
+                        1e-5 * std::abs(apart.at(0, 1, x, y)))
+                << res << " texel " << x << "," << y;
+          }
+    }
+  }
+}
+
+// Products of captures whose lights are kept apart against the product of their full texel
+// grids with the lights splatted in (both captured here), within the certified bound.
+TEST(Capture, ProductsWithLightsStayWithinTheirBoundOfTheTexels) {
+  const Environment env(two_suns_and_a_patch());
+  const std::vector<CapturePoint> points = {{Vec3::Zero(), Vec3(0.2, 0.1, 1).normalized()},
+                                            {Vec3::Zero(), Vec3(0.3, 0.9, 0.4).normalized()}};
+  std::vector<Grid> apart_grids(points.size()), splat_grids(points.size());
+  CaptureSetOptions options;
+  options.capture.resolution = 16;
+  options.projection.tolerance = 0.2;  // coarse trees: the bound has work to do
+  options.on_grid = [&](std::size_t k, const Grid& grid, std::span<const DirectionalLight> l) {
+    apart_grids[k] = grid;
+    splat_lights(l, apart_grids[k]);
+  };
+  const CaptureSet apart = capture_set(env, nullptr, points, options);
+  options.separate_lights = false;
+  options.on_grid = [&](std::size_t k, const Grid& grid, std::span<const DirectionalLight>) {
+    splat_grids[k] = grid;
+  };
+  const CaptureSet splat = capture_set(env, nullptr, points, options);
+  ASSERT_GT(apart.lights.size(), 0u);
+  ASSERT_TRUE(splat.lights.empty());
+  // pi times the mean of the texel products: the hemisphere integral of L_a L_b cos.
+  auto dense = [](const Grid& a, const Grid& b, int c) {
+    double sum = 0;
+    for (int y = 0; y < a.resolution; ++y)
+      for (int x = 0; x < a.resolution; ++x)
+        sum += double(a.at(0, c, x, y)) * b.at(0, c, x, y);
+    return std::numbers::pi * sum / (double(a.resolution) * a.resolution);
+  };
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    const Convolution self = capture_product(apart.view(), apart.view(), k);
+    const Convolution mixed = capture_product(apart.view(), splat.view(), k);
+    for (int c = 0; c < 3; ++c) {
+      const double exact_self = dense(apart_grids[k], apart_grids[k], c);
+      const double exact_mixed = dense(apart_grids[k], splat_grids[k], c);
+      EXPECT_LE(std::abs(self.value[c] - exact_self), self.bound[c] * 1.0001 + 1e-6 * exact_self)
+          << k << " " << c;
+      EXPECT_LE(std::abs(mixed.value[c] - exact_mixed),
+                mixed.bound[c] * 1.0001 + 1e-6 * exact_mixed)
+          << k << " " << c;
+      EXPECT_LT(self.bound[c], 0.5 * exact_self) << "a bound too loose to mean anything";
     }
   }
 }

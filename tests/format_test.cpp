@@ -2,6 +2,7 @@
 // and future files are rejected with one clear line; writes are atomic.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -109,7 +110,7 @@ TEST(QtFormat, TreeRoundTripKeepsBitsAndConvolution) {
   write_qt(dir.file("tree.qt"), encode_tree(tree.view(), projection, test_provenance()));
   const QtFile file = QtFile::load(dir.file("tree.qt"));
   EXPECT_EQ(file.kind(), QtKind::tree);
-  EXPECT_EQ(file.format_version(), kQtFormatVersion);
+  EXPECT_EQ(file.format_version(), 1u);  // nothing in it needs version 2
   EXPECT_TRUE(same_bytes(file.tree().nodes(), tree.nodes));
   EXPECT_TRUE(same_bytes(file.tree().errors(), tree.errors));
   EXPECT_EQ(file.tree().shape(), tree.shape);
@@ -162,6 +163,7 @@ TEST(QtFormat, CaptureSetRoundTrip) {
   write_qt(dir.file("c.qt"), encode_capture_set(captures.view(), {}, test_provenance()));
   const QtFile file = QtFile::load(dir.file("c.qt"));
   ASSERT_EQ(file.kind(), QtKind::capture_set);
+  EXPECT_EQ(file.format_version(), 2u);  // it holds lights
   const CaptureSetView loaded = file.captures();
   ASSERT_EQ(loaded.size(), 12u);
   for (std::size_t i = 0; i < 12; ++i) {
@@ -187,6 +189,7 @@ TEST(QtFormat, CaptureSetRoundTrip) {
   unlit.light_offsets.clear();
   const QtFile plain = QtFile::from_bytes(encode_capture_set(unlit.view(), {}, {}), "plain.qt");
   EXPECT_TRUE(plain.captures().light_offsets.empty());
+  EXPECT_EQ(plain.format_version(), 1u);
   EXPECT_TRUE(plain.captures().lights_of(1).empty());
 }
 
@@ -209,12 +212,25 @@ TEST(QtFormat, BadCaptureLightsAreNamed) {
   CaptureSet negative = good;
   negative.lights[0].energy[0] = -1;
   EXPECT_NE(error_of(negative).find("energy negative or not finite"), std::string::npos);
+  // Offsets out of order: the encoder refuses them, and so does the reader of bytes changed
+  // after encoding (the offsets found by their values in the buffer).
+  ASSERT_EQ(good.light_offsets, (std::vector<std::uint32_t>{0, 0, 1, 1, 1, 1, 3}));
   CaptureSet unsorted = good;
-  unsorted.light_offsets[1] = unsorted.light_offsets[2] + 1;
-  EXPECT_NE(error_of(unsorted).find("light offsets"), std::string::npos);
+  unsorted.light_offsets[1] = 2;
+  EXPECT_THROW(encode_capture_set(unsorted.view(), {}, {}), std::invalid_argument);
+  std::vector<std::byte> bytes = encode_capture_set(good.view(), {}, {});
+  const auto* offsets = reinterpret_cast<const std::byte*>(good.light_offsets.data());
+  const auto at = std::search(bytes.begin(), bytes.end(), offsets, offsets + 7 * 4);
+  ASSERT_NE(at, bytes.end());
+  const std::uint32_t two = 2;
+  std::memcpy(&*at + 4, &two, 4);
+  EXPECT_NE(load_error(bytes).find("light offsets"), std::string::npos);
   CaptureSet short_offsets = good;
   short_offsets.light_offsets.pop_back();
   EXPECT_THROW(encode_capture_set(short_offsets.view(), {}, {}), std::invalid_argument);
+  CaptureSet no_offsets = good;
+  no_offsets.light_offsets.clear();
+  EXPECT_THROW(encode_capture_set(no_offsets.view(), {}, {}), std::invalid_argument);
 }
 
 // Every mutated or truncated buffer either loads as a valid file, whose trees then convolve

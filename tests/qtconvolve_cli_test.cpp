@@ -123,7 +123,9 @@ TEST(QtconvolveCli, CertifiedBoundHoldsAgainstTheFullResolutionReference) {
             0);
   const auto info = run_tool("qtinfo", {"points.qt", "--json"}, dir.path());
   ASSERT_GT(nlohmann::json::parse(info.out)["captures"]["points_with_lights"].get<int>(), 0);
-  // The directional lights (the sun) shaded with the BRDF or with the table's texels.
+  // The directional lights (the sun) shaded with the BRDF or with the table's texels. With the
+  // BRDF the reference evaluates the lights as the lookup does (the glossy test checks that
+  // term against the map); with the table the bound must cover the entries' leaves there.
   for (const std::string lights : {"brdf", "table"})
     for (const std::string wo : {"0,0,1", "0.6,0.3,0.74"}) {
       const auto j = convolve_json(

@@ -35,10 +35,12 @@ int main(int argc, char** argv) {
                  "entries per side of the parabolic grid over wo (default 33: bilinear "
                  "interpolation between entries errs by up to 1.8 % at 16, 0.4 % at 33)")
       ->check(CLI::Range(2, 256));
-  app.add_option("--wi-res", wi_res,
-                 "texels per side of each entry, a power of two up to 512 (default 128: "
-                 "with the sun kept apart, glossy reflections of a low sun err by up to 1.3 % at "
-                 "64, 3.3 % at 32; splatted, up to 6 % at 64 and 5 % at 128; see README)");
+  app.add_option(
+      "--wi-res", wi_res,
+      "texels per side of each entry, a power of two up to 512 (default 128: "
+      "with the sun kept apart and qtconvolve --lights brdf, glossy reflections of a low "
+      "sun err by up to 1.3 % at 64, 3.3 % at 32; splatted or with --lights table, up "
+      "to 6 % at 64 and 5 % at 128; see README)");
   app.add_option("--tolerance", tolerance,
                  "refine while a quadrant's error bound exceeds this fraction of the entry's "
                  "mean (default 0.05)")

@@ -60,10 +60,10 @@ int main(int argc, char** argv) {
       "escape take the environment averaged over their stratum's solid angle; bright "
       "environment pixels (a sun) are split into pieces whose energy goes exactly into the "
       "texel they fall in, behind a shadow ray, so that no sun is lost or multiplied. "
-      "Compact lights among them (a sun: groups of pixels at least 4 times brighter than that "
-      "level, within 3 degrees) are kept apart as directions with their energy, which "
-      "qtconvolve shades with the BRDF at their exact direction; --splat-lights puts them into "
-      "texels instead. "
+      "Bright pixels are those above 8 x the map's mean (at most 0.5 % of them); compact "
+      "lights among them (a sun: connected pixels at least 4 times above that level, within 3 "
+      "degrees) are kept apart as directions with their energy, which qtconvolve shades with "
+      "the BRDF at their exact direction; --splat-lights puts them into texels instead. "
       "An environment map with NaN or infinite texels is refused (exit 1) unless --zero-invalid "
       "reads them as 0; negative texels are read as 0; a warning counts what was set to 0.\n\n"
       "Or, with --image, compress one capture image (square, power-of-two side, texel (x, y) "
@@ -97,10 +97,12 @@ int main(int argc, char** argv) {
   where->add_option("--image", image_path, "compress this capture image instead of tracing");
   app.add_option("--normal", normal_text, "normal at --at (default 0,0,1)");
   app.add_option("--seed", seed, "seed of the jitter and of --sample (default 1)");
-  app.add_option("--res", res,
-                 "texels per side of each capture, a power of two up to 512 (default 128: "
-                 "with the sun kept apart, glossy reflections of a low sun err by up to 1.3 % at "
-                 "64, 3.3 % at 32; splatted, up to 6 % at 64 and 5 % at 128; see README)");
+  app.add_option(
+      "--res", res,
+      "texels per side of each capture, a power of two up to 512 (default 128: "
+      "with the sun kept apart and qtconvolve --lights brdf, glossy reflections of a low "
+      "sun err by up to 1.3 % at 64, 3.3 % at 32; splatted or with --lights table, up "
+      "to 6 % at 64 and 5 % at 128; see README)");
   app.add_option("--spp", spp,
                  "rays per texel, a square number: strata per texel (default 4, up to 4096)")
       ->check(CLI::Range(1, 4096));

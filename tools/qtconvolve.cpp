@@ -208,10 +208,9 @@ int main(int argc, char** argv) {
         light_spec = basis::table_brdf(*table);
         shading.light_brdf = &light_spec->brdf;
       } catch (const basis::FileError& e) {
-        if (!quiet)
-          std::fprintf(stderr,
-                       "qtconvolve: warning: %s; directional lights use the table's texels\n",
-                       e.what());
+        // Always said, -q or not: the lights lose accuracy (see --lights).
+        std::fprintf(stderr, "qtconvolve: warning: %s; directional lights use the table's texels\n",
+                     e.what());
       }
     }
 

@@ -42,9 +42,14 @@ namespace {
   throw FileError(name + ": " + problem);
 }
 
+// A vector of structs viewed in place; a vector not aligned for T (the verifier checks only
+// 4 bytes) is an error naming `what`.
 template <typename T, typename F>
-std::span<const T> as_span(const flatbuffers::Vector<const F*>* v) {
-  if (!v) return {};
+std::span<const T> as_span(const flatbuffers::Vector<const F*>* v, const std::string& name,
+                           const char* what) {
+  if (!v || v->size() == 0) return {};
+  if (reinterpret_cast<std::uintptr_t>(v->Data()) % alignof(T) != 0)
+    fail(name, std::string(what) + " are misaligned (corrupt file)");
   return {reinterpret_cast<const T*>(v->Data()), v->size()};
 }
 
@@ -244,9 +249,9 @@ void QtFile::verify() {
   if (kind_ == QtKind::capture_set) {
     const fb::CaptureSet* set_info = root->capture_set();
     if (!set_info) fail(name_, "capture positions are missing");
-    captures_.positions = as_span<Point3>(set_info->positions());
-    captures_.normals = as_span<Point3>(set_info->normals());
-    captures_.tangents = as_span<Point3>(set_info->tangents());
+    captures_.positions = as_span<Point3>(set_info->positions(), name_, "capture positions");
+    captures_.normals = as_span<Point3>(set_info->normals(), name_, "capture normals");
+    captures_.tangents = as_span<Point3>(set_info->tangents(), name_, "capture tangents");
     captures_.trees = trees_;
     if (captures_.positions.size() != trees_.size() || captures_.normals.size() != trees_.size() ||
         captures_.tangents.size() != trees_.size())
@@ -263,7 +268,7 @@ void QtFile::verify() {
       if (std::abs(n[0] * t[0] + n[1] * t[1] + n[2] * t[2]) > 1e-3)
         fail(name_, "capture " + std::to_string(i) + ": tangent is not orthogonal to the normal");
     }
-    captures_.lights = as_span<DirectionalLight>(set_info->lights());
+    captures_.lights = as_span<DirectionalLight>(set_info->lights(), name_, "capture lights");
     if (const auto* offsets = set_info->light_offsets())
       captures_.light_offsets = {offsets->data(), offsets->size()};
     if (!captures_.light_offsets.empty() || !captures_.lights.empty()) {
@@ -320,9 +325,9 @@ TreeSetView QtFile::verify_tree_set(const void* set_pointer, const std::string& 
                     std::to_string(levels));
   if (projection) *projection = p;
 
-  const auto extents = as_span<TreeExtent>(set->extents());
-  const auto nodes = as_span<Quad>(set->nodes());
-  const auto errors = as_span<Quad>(set->errors());
+  const auto extents = as_span<TreeExtent>(set->extents(), name_, "tree extents");
+  const auto nodes = as_span<Quad>(set->nodes(), name_, "tree nodes");
+  const auto errors = as_span<Quad>(set->errors(), name_, "tree error bounds");
   if (extents.empty()) fail(name_, "no " + what);
   std::uint64_t total = 0;
   for (const TreeExtent& e : extents) {
@@ -411,9 +416,10 @@ std::vector<std::byte> finish(flatbuffers::FlatBufferBuilder& b, fb::Kind kind,
                               flatbuffers::Offset<fb::TreeSet> trees,
                               flatbuffers::Offset<fb::BrdfTable> table,
                               flatbuffers::Offset<fb::CaptureSet> captures,
-                              flatbuffers::Offset<fb::Provenance> provenance) {
-  const auto root = fb::CreateFile(b, kQtFormatVersion, kind, fb::Mapping::CosineConcentric, trees,
-                                   table, captures, provenance);
+                              flatbuffers::Offset<fb::Provenance> provenance,
+                              std::uint32_t version = 1) {
+  const auto root = fb::CreateFile(b, version, kind, fb::Mapping::CosineConcentric, trees, table,
+                                   captures, provenance);
   fb::FinishFileBuffer(b, root);
   const auto* data = reinterpret_cast<const std::byte*>(b.GetBufferPointer());
   return {data, data + b.GetSize()};
@@ -467,8 +473,12 @@ std::vector<std::byte> encode_capture_set(const CaptureSetView& captures,
       captures.normals.size() != captures.trees.size() ||
       captures.tangents.size() != captures.trees.size())
     throw std::invalid_argument("capture positions, normals and tangents do not match the trees");
-  if (!captures.light_offsets.empty() && (captures.light_offsets.size() != captures.size() + 1 ||
-                                          captures.light_offsets.back() != captures.lights.size()))
+  const auto& offsets = captures.light_offsets;
+  if (!captures.lights.empty() && offsets.empty())
+    throw std::invalid_argument("capture lights without offsets saying whose they are");
+  if (!offsets.empty() &&
+      (offsets.size() != captures.size() + 1 || offsets.front() != 0 ||
+       offsets.back() != captures.lights.size() || !std::is_sorted(offsets.begin(), offsets.end())))
     throw std::invalid_argument("capture light offsets do not match the captures and lights");
   flatbuffers::FlatBufferBuilder b(
       captures.trees.nodes().size_bytes() + captures.trees.errors().size_bytes() +
@@ -483,14 +493,16 @@ std::vector<std::byte> encode_capture_set(const CaptureSetView& captures,
   const auto tangents = points(captures.tangents);
   flatbuffers::Offset<flatbuffers::Vector<const fb::Light*>> lights = 0;
   flatbuffers::Offset<flatbuffers::Vector<std::uint32_t>> light_offsets = 0;
-  if (!captures.light_offsets.empty()) {
+  const bool with_lights = !captures.lights.empty();  // no lights: written as version 1
+  if (with_lights) {
     lights = b.CreateVectorOfStructs(reinterpret_cast<const fb::Light*>(captures.lights.data()),
                                      captures.lights.size());
     light_offsets = b.CreateVector(captures.light_offsets.data(), captures.light_offsets.size());
   }
   const auto info = fb::CreateCaptureSet(b, positions, normals, tangents, lights, light_offsets);
   const auto prov = build_provenance(b, provenance);
-  return finish(b, fb::Kind::CaptureSet, trees, 0, info, prov);
+  // Version 2 only when the set holds lights, so that older readers take the rest.
+  return finish(b, fb::Kind::CaptureSet, trees, 0, info, prov, with_lights ? 2 : 1);
 }
 
 void write_qt(const std::string& path, std::span<const std::byte> encoded) {

@@ -125,10 +125,12 @@ void Environment::find_compact_lights(double level, std::span<const double> lumi
     }
     if (!(light.direction.norm() > 0)) continue;
     light.direction.normalize();
+    light.radius = std::sqrt(0.5) * std::numbers::pi / height_;  // half a pixel's diagonal
     for (const std::size_t i : group) {
       const Vec3 d = direction(bright_[i].column + 0.5, bright_[i].row + 0.5);
-      light.radius = std::max(light.radius,
-                              std::atan2(light.direction.cross(d).norm(), light.direction.dot(d)));
+      light.radius = std::max(
+          light.radius, std::sqrt(0.5) * std::numbers::pi / height_ +
+                            std::atan2(light.direction.cross(d).norm(), light.direction.dot(d)));
     }
     if (light.radius > max_radius) continue;
     for (const std::size_t i : group)

@@ -82,14 +82,15 @@ Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, st
 }
 
 Convolution capture_product(const CaptureSetView& a, const CaptureSetView& b, std::size_t k) {
-  const QuadtreeView ta = a.trees.tree(a.trees.size() == 1 ? 0 : k);
-  const QuadtreeView tb = b.trees.tree(b.trees.size() == 1 ? 0 : k);
+  // A set of one capture stands for every point.
+  const std::size_t ka = a.trees.size() == 1 ? 0 : k, kb = b.trees.size() == 1 ? 0 : k;
+  const QuadtreeView ta = a.trees.tree(ka), tb = b.trees.tree(kb);
   Convolution result = convolve(ta, tb);
   for (int c = 0; c < 3; ++c) {
     result.value[c] *= float(std::numbers::pi);
     result.bound[c] *= float(std::numbers::pi);
   }
-  const auto la = a.lights_of(k), lb = b.lights_of(k);
+  const auto la = a.lights_of(ka), lb = b.lights_of(kb);
   if (la.empty() && lb.empty()) return result;
   const int n = ta.shape().resolution;
   if (tb.shape().resolution != n)

@@ -17,7 +17,8 @@
 
 namespace basis {
 
-// Version 2 added the capture sets' directional lights; version 1 files read as before.
+// The newest format version this build reads. Version 2 added the capture sets' directional
+// lights; files are written as version 1 unless they hold lights, and version 1 reads as before.
 inline constexpr std::uint32_t kQtFormatVersion = 2;
 
 // Limits checked before anything is allocated from a file's claims.

@@ -51,13 +51,15 @@ class Environment {
   std::span<const BrightPixel> bright_pixels() const { return bright_; }
 
   // A compact light: a connected group of bright pixels at least kLightContrast times the
-  // smooth level, all within kMaxLightRadiusDegrees of their energy-weighted centre. Much
+  // smooth level, all (to their extent) within kMaxLightRadiusDegrees of their energy-weighted
+  // centre. Much
   // smaller than a capture's texels near the horizon, it is kept apart as a direction.
   static constexpr double kLightContrast = 4;
   static constexpr double kMaxLightRadiusDegrees = 3;
   struct CompactLight {
     Vec3 direction;  // world, unit: the centre of its excess energy
-    double radius;   // radians: largest angle from the centre to a pixel's centre
+    double radius;   // radians: largest angle from the centre to a pixel's centre, plus half
+                     // a pixel's diagonal at the equator
     Color energy;    // integral of the excess radiance over its pixels' solid angle
   };
   std::span<const CompactLight> lights() const { return lights_; }

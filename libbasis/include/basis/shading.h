@@ -41,8 +41,9 @@ Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, st
 // The integral of L_a L_b cos over the hemisphere (pi times the product's integral over the
 // cosine-weighted map) at capture k of two sets of one resolution, each capture's directional
 // lights standing in the texel they fall in (as splat_lights would put them); the bound adds,
-// for each light, its weight times the other tree's leaf error bound there. Throws
-// std::invalid_argument when sets with lights differ in resolution.
+// for each light, its weight times the other tree's leaf error bound there. A set of one
+// capture stands for every point. Throws std::invalid_argument when sets with lights differ in
+// resolution.
 Convolution capture_product(const CaptureSetView& a, const CaptureSetView& b, std::size_t k);
 
 }  // namespace basis
