@@ -82,10 +82,8 @@ std::vector<basis::Rgb> references(const basis::QtFile& table_file,
       if (light_brdf) {
         f = basis::evaluate(*light_brdf, wi, wo);
       } else {
-        const basis::Vec2 uv = basis::cosine_hemisphere_to_square(wi);
         for (const auto& [weight, entry] : entries) {
-          const int n = entry.resolution;
-          const int x = std::min(n - 1, int(uv.x() * n)), y = std::min(n - 1, int(uv.y() * n));
+          const auto [x, y] = basis::cosine_hemisphere_texel(wi, entry.resolution);
           for (int c = 0; c < 3; ++c)
             f[c] += weight * entry.at(0, std::min(c, entry.channels - 1), x, y);
         }

@@ -29,11 +29,6 @@ double unit(std::uint64_t x) {
   return double(mix(x) >> 11) * 0x1.0p-53;
 }
 
-// Angle between two unit directions.
-double angle_between(const Vec3& a, const Vec3& b) {
-  return std::atan2(a.cross(b).norm(), a.dot(b));
-}
-
 }  // namespace
 
 Grid capture(const Environment& environment, const RayScene* scene, const Vec3& position,
@@ -138,8 +133,7 @@ Grid capture(const Environment& environment, const RayScene* scene, const Vec3& 
         const Vec3 l =
             frame.to_local(environment.direction(b.column + (sx + 0.5) / s, (y0 + y1) / 2));
         if (l.z() <= 0) continue;
-        const Vec2 uv = cosine_hemisphere_to_square(l);
-        const int tx = std::min(n - 1, int(uv.x() * n)), ty = std::min(n - 1, int(uv.y() * n));
+        const auto [tx, ty] = cosine_hemisphere_texel(l, n);
         const double weight = light >= 0 ? omega : omega * l.z() / std::numbers::pi / texel_area;
         deposits.push_back({shadow.size(),
                             std::size_t(ty) * n + tx,
@@ -165,8 +159,7 @@ Grid capture(const Environment& environment, const RayScene* scene, const Vec3& 
       Seen& light = seen[std::size_t(d.light)];
       for (int c = 0; c < 3; ++c)
         light.energy[c] += d.energy[c];
-      light.direction +=
-          (0.2126 * d.energy[0] + 0.7152 * d.energy[1] + 0.0722 * d.energy[2]) * d.local;
+      light.direction += luminance(d.energy) * d.local;
       continue;
     }
     for (int c = 0; c < 3; ++c)
@@ -192,9 +185,7 @@ void splat_lights(std::span<const DirectionalLight> lights, Grid& grid) {
   for (const DirectionalLight& light : lights) {
     const Vec3 w(light.direction[0], light.direction[1], light.direction[2]);
     if (!(w.z() > 0)) continue;
-    const Vec2 uv = cosine_hemisphere_to_square(w);
-    const int tx = std::clamp(int(uv.x() * n), 0, n - 1),
-              ty = std::clamp(int(uv.y() * n), 0, n - 1);
+    const auto [tx, ty] = cosine_hemisphere_texel(w, n);
     const double weight = w.z() / std::numbers::pi * double(n) * n;
     for (int c = 0; c < std::min(3, grid.channels); ++c)
       grid.at(0, c, tx, ty) += float(light.energy[c] * weight);

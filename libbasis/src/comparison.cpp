@@ -16,10 +16,6 @@ namespace basis {
 
 namespace {
 
-double luminance(const std::array<double, 3>& c) {
-  return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
-}
-
 double relative_error(const std::array<double, 3>& value, const Color& truth) {
   const double t = luminance({truth[0], truth[1], truth[2]});
   return std::abs(luminance(value) - t) / t;

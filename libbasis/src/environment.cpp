@@ -9,14 +9,6 @@
 
 namespace basis {
 
-namespace {
-
-double luminance(const float* rgb) {
-  return 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
-}
-
-}  // namespace
-
 Environment::Environment(const Image& latlong, double rotate_z_degrees)
     : width_(latlong.width),
       height_(latlong.height),
@@ -49,7 +41,7 @@ Environment::Environment(const Image& latlong, double rotate_z_degrees)
   std::vector<double> lum(std::size_t(width_) * height_);
   for (int y = 0; y < height_; ++y)
     for (int x = 0; x < width_; ++x) {
-      lum[std::size_t(y) * width_ + x] = luminance(&pixels_[(std::size_t(y) * width_ + x) * 3]);
+      lum[std::size_t(y) * width_ + x] = luminance(pixel(y, x));
       mean += lum[std::size_t(y) * width_ + x] * row_solid_angle_[y];
     }
   mean /= 4 * std::numbers::pi;
@@ -75,13 +67,13 @@ Environment::Environment(const Image& latlong, double rotate_z_degrees)
   find_compact_lights(level, lum);
 }
 
-void Environment::find_compact_lights(double level, std::span<const double> luminance) {
+void Environment::find_compact_lights(double level, std::span<const double> pixel_luminance) {
   // Candidates: bright pixels far above the smooth level, in row-major order (as bright_ is).
   std::vector<std::size_t> candidates;  // indices into bright_
   std::vector<std::size_t> keys;        // their pixel indices, ascending
   for (std::size_t i = 0; i < bright_.size(); ++i) {
     const std::size_t key = std::size_t(bright_[i].row) * width_ + bright_[i].column;
-    if (luminance[key] >= kLightContrast * level) {
+    if (pixel_luminance[key] >= kLightContrast * level) {
       candidates.push_back(i);
       keys.push_back(key);
     }
@@ -119,18 +111,15 @@ void Environment::find_compact_lights(double level, std::span<const double> lumi
       const double omega = row_solid_angle_[b.row];
       for (int c = 0; c < 3; ++c)
         light.energy[c] += b.excess[c] * omega;
-      const double weight =
-          (0.2126 * b.excess[0] + 0.7152 * b.excess[1] + 0.0722 * b.excess[2]) * omega;
-      light.direction += weight * direction(b.column + 0.5, b.row + 0.5);
+      light.direction += luminance(b.excess) * omega * direction(b.column + 0.5, b.row + 0.5);
     }
     if (!(light.direction.norm() > 0)) continue;
     light.direction.normalize();
     light.radius = std::sqrt(0.5) * std::numbers::pi / height_;  // half a pixel's diagonal
     for (const std::size_t i : group) {
       const Vec3 d = direction(bright_[i].column + 0.5, bright_[i].row + 0.5);
-      light.radius = std::max(
-          light.radius, std::sqrt(0.5) * std::numbers::pi / height_ +
-                            std::atan2(light.direction.cross(d).norm(), light.direction.dot(d)));
+      light.radius = std::max(light.radius, std::sqrt(0.5) * std::numbers::pi / height_ +
+                                                angle_between(light.direction, d));
     }
     if (light.radius > max_radius) continue;
     for (const std::size_t i : group)

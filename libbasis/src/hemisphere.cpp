@@ -25,6 +25,11 @@ double square_to_cosine_hemisphere_pdf(const Vec3& w) {
   return std::max(0.0, w.z()) / std::numbers::pi;
 }
 
+std::array<int, 2> cosine_hemisphere_texel(const Vec3& w, int n) {
+  const Vec2 uv = cosine_hemisphere_to_square(w);
+  return {std::clamp(int(uv.x() * n), 0, n - 1), std::clamp(int(uv.y() * n), 0, n - 1)};
+}
+
 Vec3 square_to_uniform_hemisphere(const Vec2& uv) {
   const Vec2 d = square_to_uniform_disk_concentric(uv);
   const double r2 = d.squaredNorm();

@@ -52,7 +52,9 @@ Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, st
   }
   const auto lights = captures.lights_of(k);
   if (lights.empty()) return result;
-  const auto taps = table_taps(table.wo_resolution, wo);
+  // The entries around wo, read only when the lights take f from the table.
+  const auto taps =
+      options.light_brdf ? std::array<TableTap, 4>{} : table_taps(table.wo_resolution, wo);
   const int table_channels = table.trees.shape().channels;
   for (const DirectionalLight& light : lights) {
     Vec3 wi = vec(light.direction);
@@ -103,9 +105,9 @@ Convolution capture_product(const CaptureSetView& a, const CaptureSetView& b, st
   auto splats = [&](std::span<const DirectionalLight> lights) {
     std::vector<Splat> out;
     for (const DirectionalLight& l : lights) {
-      const Vec2 uv = cosine_hemisphere_to_square(vec(l.direction));
-      out.push_back({std::clamp(int(uv.x() * n), 0, n - 1),
-                     std::clamp(int(uv.y() * n), 0, n - 1),
+      const auto [x, y] = cosine_hemisphere_texel(vec(l.direction), n);
+      out.push_back({x,
+                     y,
                      {l.energy[0] * l.direction[2], l.energy[1] * l.direction[2],
                       l.energy[2] * l.direction[2]}});
     }

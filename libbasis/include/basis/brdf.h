@@ -13,6 +13,11 @@ namespace basis {
 
 using Color = std::array<double, 3>;
 
+// Rec. 709 luminance of a linear RGB colour.
+inline double luminance(const Color& rgb) {
+  return 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
+}
+
 // albedo / pi.
 struct Lambert {
   Color albedo{1, 1, 1};

@@ -75,7 +75,7 @@ class Environment {
  private:
   Environment() = default;
   Color pixel(int row, int column) const;
-  void find_compact_lights(double level, std::span<const double> luminance);
+  void find_compact_lights(double level, std::span<const double> pixel_luminance);
 
   int width_ = 0, height_ = 0;
   double rotation_ = 0;                  // radians

@@ -2,6 +2,8 @@
 // and uniform equal-area (Lambert azimuthal). Directions are in the local frame, z = normal.
 #pragma once
 
+#include <array>
+
 #include "basis/vector.h"
 
 namespace basis {
@@ -14,6 +16,8 @@ Vec3 square_to_cosine_hemisphere(const Vec2& uv);
 Vec2 cosine_hemisphere_to_square(const Vec3& w);
 // Density of square_to_cosine_hemisphere with respect to solid angle: cos(theta) / pi.
 double square_to_cosine_hemisphere_pdf(const Vec3& w);
+// Texel (x, y) of an n x n grid over the cosine-weighted map that holds direction w (z >= 0).
+std::array<int, 2> cosine_hemisphere_texel(const Vec3& w, int n);
 
 // Uniform: (u,v) in [0,1]^2 -> disk -> z = 1 - r^2. Density 1/(2 pi) per steradian, so the
 // integral over the hemisphere of A equals 2 pi times the integral of A over the unit square.
