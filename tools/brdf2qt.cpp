@@ -5,10 +5,10 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "basis/brdf_spec.h"
-#include "basis/brdf_table.h"
-#include "basis/qt_file.h"
-#include "basis/version.h"
+#include "basis/brdf/brdf_spec.h"
+#include "basis/brdf/brdf_table.h"
+#include "basis/core/version.h"
+#include "basis/format/qt_file.h"
 #include "cli.h"
 
 int main(int argc, char** argv) {

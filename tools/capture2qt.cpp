@@ -6,12 +6,12 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "basis/capture.h"
-#include "basis/image_io.h"
-#include "basis/mesh.h"
-#include "basis/qt_file.h"
-#include "basis/trace.h"
-#include "basis/version.h"
+#include "basis/core/version.h"
+#include "basis/format/qt_file.h"
+#include "basis/io/image_file.h"
+#include "basis/lighting/capture.h"
+#include "basis/lighting/embree_scene.h"
+#include "basis/lighting/mesh.h"
 #include "cli.h"
 
 namespace {
@@ -198,7 +198,7 @@ int main(int argc, char** argv) {
     }
 
     // Points.
-    std::vector<basis::CapturePoint> points;
+    std::vector<basis::SurfacePoint> points;
     if (int(!at.empty()) + int(!points_path.empty()) + int(sample > 0) != 1)
       throw UsageError("give the points: --at X,Y,Z, --points FILE or --sample N");
     if (!at.empty()) {

@@ -8,7 +8,7 @@
 #include <iostream>
 #include <sstream>
 
-#include "basis/atomic_file.h"
+#include "basis/core/file_error.h"
 
 namespace basis::cli {
 
@@ -112,8 +112,8 @@ std::unique_ptr<tbb::task_arena> thread_arena(int threads) {
   return std::make_unique<tbb::task_arena>();
 }
 
-std::array<double, 3> parse_triple(const std::string& text, const std::string& option) {
-  std::array<double, 3> v{};
+Vec3 parse_triple(const std::string& text, const std::string& option) {
+  Vec3 v;
   std::istringstream in(text);
   char comma1 = 0, comma2 = 0;
   if (!(in >> v[0] >> comma1 >> v[1] >> comma2 >> v[2]) || comma1 != ',' || comma2 != ',' ||

@@ -11,7 +11,8 @@
 #include <memory>
 #include <string>
 
-#include "basis/task.h"
+#include "basis/core/task.h"
+#include "basis/core/vector.h"
 
 namespace basis::cli {
 
@@ -57,6 +58,6 @@ class ProgressBar {
 std::unique_ptr<tbb::task_arena> thread_arena(int threads);
 
 // Parses "X,Y,Z" into three finite numbers; throws UsageError naming the option.
-std::array<double, 3> parse_triple(const std::string& text, const std::string& option);
+Vec3 parse_triple(const std::string& text, const std::string& option);
 
 }  // namespace basis::cli

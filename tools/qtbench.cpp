@@ -12,15 +12,15 @@
 #include <map>
 #include <numbers>
 
-#include "basis/brdf_table.h"
-#include "basis/capture.h"
-#include "basis/comparison.h"
-#include "basis/image_io.h"
-#include "basis/reference.h"
-#include "basis/rgl.h"
-#include "basis/tilt_study.h"
-#include "basis/trace.h"
-#include "basis/version.h"
+#include "basis/brdf/brdf_table.h"
+#include "basis/brdf/rgl.h"
+#include "basis/core/version.h"
+#include "basis/io/image_file.h"
+#include "basis/lighting/capture.h"
+#include "basis/lighting/embree_scene.h"
+#include "basis/study/comparison.h"
+#include "basis/study/reference.h"
+#include "basis/study/tilt_study.h"
 #include "cli.h"
 
 extern char** environ;

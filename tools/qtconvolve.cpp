@@ -7,15 +7,15 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
-#include "basis/dense.h"
-#include "basis/hemisphere.h"
-#include "basis/image_io.h"
-#include "basis/picture.h"
-#include "basis/qt_file.h"
-#include "basis/qt_recipe.h"
-#include "basis/shading.h"
-#include "basis/trace.h"
-#include "basis/version.h"
+#include "basis/core/dense.h"
+#include "basis/core/hemisphere.h"
+#include "basis/core/version.h"
+#include "basis/format/qt_file.h"
+#include "basis/format/qt_recipe.h"
+#include "basis/io/image_file.h"
+#include "basis/io/picture.h"
+#include "basis/lighting/embree_scene.h"
+#include "basis/lighting/shading.h"
 #include "cli.h"
 
 namespace {
@@ -63,11 +63,9 @@ std::vector<basis::Rgb> references(const basis::QtFile& table_file,
   std::vector<basis::Rgb> out(captures.size());
   for (std::size_t k = 0; k < captures.size(); ++k) {
     progress.control().check();
-    const basis::Vec3 position(captures.positions[k][0], captures.positions[k][1],
-                               captures.positions[k][2]);
     std::vector<basis::DirectionalLight> lights;
     const basis::Grid grid =
-        basis::capture(environment, scene.get(), position, basis::capture_frame(captures, k),
+        basis::capture(environment, scene.get(), captures.positions[k], captures.frame(k),
                        recipe.options, k, nullptr, lights_apart ? &lights : nullptr);
     basis::Rgb sum{0, 0, 0};
     for (const auto& [weight, entry] : entries) {
@@ -77,7 +75,7 @@ std::vector<basis::Rgb> references(const basis::QtFile& table_file,
     }
     // Directional lights: f at the light (the BRDF itself, or the entries' texels there).
     for (const basis::DirectionalLight& light : lights) {
-      const basis::Vec3 wi(light.direction[0], light.direction[1], light.direction[2]);
+      const basis::Vec3& wi = light.direction;
       basis::Color f{0, 0, 0};
       if (light_brdf) {
         f = basis::evaluate(*light_brdf, wi, wo);
@@ -268,7 +266,7 @@ int main(int argc, char** argv) {
     if (!png.empty()) {
       const basis::CaptureSetView c =
           other->kind() == QtKind::capture_set ? other->captures() : a.captures();
-      std::vector<std::array<float, 3>> values(count);
+      std::vector<basis::Rgb> values(count);
       for (std::size_t k = 0; k < count; ++k)
         values[k] = rows[k].result.value;
       basis::write_image(png, basis::draw_points_from_above(c.positions, values, 768));

@@ -1,12 +1,12 @@
 // qtinfo: what a .qt file holds, and a picture of one of its trees.
 #include <iostream>
 
-#include "basis/hemisphere.h"
-#include "basis/image_io.h"
-#include "basis/picture.h"
-#include "basis/qt_file.h"
-#include "basis/qt_summary.h"
-#include "basis/version.h"
+#include "basis/core/hemisphere.h"
+#include "basis/core/version.h"
+#include "basis/format/qt_file.h"
+#include "basis/format/qt_summary.h"
+#include "basis/io/image_file.h"
+#include "basis/io/picture.h"
 #include "cli.h"
 
 int main(int argc, char** argv) {
@@ -71,13 +71,10 @@ int main(int argc, char** argv) {
       throw basis::cli::UsageError("--group " + std::to_string(group) + " but the trees hold " +
                                    std::to_string(tree.shape().groups) + " groups");
     // A capture's directional lights are circled where they fall.
-    std::vector<std::array<double, 2>> markers;
+    std::vector<basis::Vec2> markers;
     if (file.kind() == basis::QtKind::capture_set)
-      for (const basis::DirectionalLight& l : file.captures().lights_of(index < 0 ? 0 : index)) {
-        const basis::Vec2 uv = basis::cosine_hemisphere_to_square(
-            basis::Vec3(l.direction[0], l.direction[1], l.direction[2]));
-        markers.push_back({uv.x(), uv.y()});
-      }
+      for (const basis::DirectionalLight& l : file.captures().lights_of(index < 0 ? 0 : index))
+        markers.push_back(basis::cosine_hemisphere_to_square(l.direction));
     basis::write_image(png,
                        basis::draw_tree(tree, {.size = size, .group = group, .markers = markers}));
   });

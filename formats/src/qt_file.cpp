@@ -1,4 +1,4 @@
-#include "basis/qt_file.h"
+#include "basis/format/qt_file.h"
 
 #include <fcntl.h>
 #include <sys/mman.h>
@@ -20,7 +20,7 @@ namespace fb = basis::format;
 
 static_assert(sizeof(Quad) == sizeof(fb::Quad) && alignof(Quad) == alignof(fb::Quad));
 static_assert(sizeof(TreeExtent) == sizeof(fb::TreeExtent));
-static_assert(sizeof(Point3) == sizeof(fb::Vec3) && alignof(Point3) == alignof(fb::Vec3));
+static_assert(sizeof(Vec3) == sizeof(fb::Vec3) && alignof(Vec3) == alignof(fb::Vec3));
 static_assert(sizeof(DirectionalLight) == sizeof(fb::Light) &&
               alignof(DirectionalLight) == alignof(fb::Light));
 
@@ -77,10 +77,10 @@ bool values_finite(std::span<const Quad> nodes, std::size_t stride) {
   return largest <= 0x7f7fffffu;
 }
 
-bool finite_unit_frames(std::span<const Point3> values, bool unit) {
-  for (const Point3& p : values) {
-    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) return false;
-    if (unit && std::abs(p[0] * p[0] + p[1] * p[1] + p[2] * p[2] - 1) > 1e-3) return false;
+bool finite_unit_frames(std::span<const Vec3> values, bool unit) {
+  for (const Vec3& p : values) {
+    if (!p.allFinite()) return false;
+    if (unit && std::abs(p.squaredNorm() - 1) > 1e-3) return false;
   }
   return true;
 }
@@ -249,9 +249,9 @@ void QtFile::verify() {
   if (kind_ == QtKind::capture_set) {
     const fb::CaptureSet* set_info = root->capture_set();
     if (!set_info) fail(name_, "capture positions are missing");
-    captures_.positions = as_span<Point3>(set_info->positions(), name_, "capture positions");
-    captures_.normals = as_span<Point3>(set_info->normals(), name_, "capture normals");
-    captures_.tangents = as_span<Point3>(set_info->tangents(), name_, "capture tangents");
+    captures_.positions = as_span<Vec3>(set_info->positions(), name_, "capture positions");
+    captures_.normals = as_span<Vec3>(set_info->normals(), name_, "capture normals");
+    captures_.tangents = as_span<Vec3>(set_info->tangents(), name_, "capture tangents");
     captures_.trees = trees_;
     if (captures_.positions.size() != trees_.size() || captures_.normals.size() != trees_.size() ||
         captures_.tangents.size() != trees_.size())
@@ -263,9 +263,7 @@ void QtFile::verify() {
         !finite_unit_frames(captures_.tangents, true))
       fail(name_, "a capture normal or tangent is not a unit vector");
     for (std::size_t i = 0; i < captures_.size(); ++i) {
-      const Point3& n = captures_.normals[i];
-      const Point3& t = captures_.tangents[i];
-      if (std::abs(n[0] * t[0] + n[1] * t[1] + n[2] * t[2]) > 1e-3)
+      if (std::abs(captures_.normals[i].dot(captures_.tangents[i])) > 1e-3)
         fail(name_, "capture " + std::to_string(i) + ": tangent is not orthogonal to the normal");
     }
     captures_.lights = as_span<DirectionalLight>(set_info->lights(), name_, "capture lights");
@@ -279,8 +277,8 @@ void QtFile::verify() {
         fail(name_, "capture light offsets do not match the captures and their lights");
       for (std::size_t i = 0; i < captures_.lights.size(); ++i) {
         const DirectionalLight& l = captures_.lights[i];
-        const Point3& e = l.energy;
-        if (!finite_unit_frames({&l.direction, 1}, true) || !(l.direction[2] > 0) ||
+        const Color& e = l.energy;
+        if (!finite_unit_frames({&l.direction, 1}, true) || !(l.direction.z() > 0) ||
             !std::isfinite(e[0]) || !std::isfinite(e[1]) || !std::isfinite(e[2]) || e[0] < 0 ||
             e[1] < 0 || e[2] < 0 || std::max({e[0], e[1], e[2]}) > 3e38)
           fail(name_, "capture light " + std::to_string(i) +
@@ -482,10 +480,10 @@ std::vector<std::byte> encode_capture_set(const CaptureSetView& captures,
     throw std::invalid_argument("capture light offsets do not match the captures and lights");
   flatbuffers::FlatBufferBuilder b(
       captures.trees.nodes().size_bytes() + captures.trees.errors().size_bytes() +
-      captures.size() * 3 * sizeof(Point3) + captures.lights.size_bytes() +
+      captures.size() * 3 * sizeof(Vec3) + captures.lights.size_bytes() +
       captures.light_offsets.size_bytes() + 4096);
   const auto trees = build_tree_set(b, captures.trees, projection);
-  auto points = [&](std::span<const Point3> v) {
+  auto points = [&](std::span<const Vec3> v) {
     return b.CreateVectorOfStructs(reinterpret_cast<const fb::Vec3*>(v.data()), v.size());
   };
   const auto positions = points(captures.positions);

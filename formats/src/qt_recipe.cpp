@@ -1,4 +1,4 @@
-#include "basis/qt_recipe.h"
+#include "basis/format/qt_recipe.h"
 
 #include <filesystem>
 #include <nlohmann/json.hpp>

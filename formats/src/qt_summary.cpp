@@ -1,4 +1,4 @@
-#include "basis/qt_summary.h"
+#include "basis/format/qt_summary.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -67,18 +67,17 @@ ordered_json summarise(const QtFile& file) {
   }
   if (file.kind() == QtKind::capture_set) {
     const CaptureSetView c = file.captures();
-    Point3 lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
-    for (const Point3& q : c.positions)
-      for (int k = 0; k < 3; ++k) {
-        lo[k] = std::min(lo[k], q[k]);
-        hi[k] = std::max(hi[k], q[k]);
-      }
+    Vec3 lo = Vec3::Constant(INFINITY), hi = Vec3::Constant(-INFINITY);
+    for (const Vec3& q : c.positions) {
+      lo = lo.cwiseMin(q);
+      hi = hi.cwiseMax(q);
+    }
     std::size_t lit = 0;
     for (std::size_t k = 0; k < c.size(); ++k)
       lit += !c.lights_of(k).empty();
     j["captures"] = {{"points", c.size()},
-                     {"bounds_min", lo},
-                     {"bounds_max", hi},
+                     {"bounds_min", {lo.x(), lo.y(), lo.z()}},
+                     {"bounds_max", {hi.x(), hi.y(), hi.z()}},
                      {"lights", c.lights.size()},
                      {"points_with_lights", lit}};
   }

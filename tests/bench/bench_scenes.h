@@ -7,9 +7,9 @@
 #include <numbers>
 #include <string>
 
-#include "basis/brdf.h"
-#include "basis/hemisphere.h"
-#include "basis/supersample.h"
+#include "basis/brdf/brdf.h"
+#include "basis/core/hemisphere.h"
+#include "basis/core/supersample.h"
 
 namespace basis::bench {
 

@@ -7,11 +7,11 @@
 #include <memory>
 #include <numbers>
 
-#include "basis/brdf_table.h"
-#include "basis/capture.h"
-#include "basis/quadtree.h"
-#include "basis/shading.h"
-#include "basis/trace.h"
+#include "basis/brdf/brdf_table.h"
+#include "basis/core/quadtree.h"
+#include "basis/lighting/capture.h"
+#include "basis/lighting/embree_scene.h"
+#include "basis/lighting/shading.h"
 
 namespace basis::bench {
 namespace {
@@ -132,7 +132,7 @@ void BM_ShadeSun(benchmark::State& state) {
     o.tilt_derivatives = false;
     return tabulate_brdf(phong, o);
   }();
-  const CapturePoint point{Vec3::Zero(), Vec3(0.1, 0.2, 1).normalized()};
+  const SurfacePoint point{Vec3::Zero(), Vec3(0.1, 0.2, 1).normalized()};
   CaptureSetOptions capture_options;
   capture_options.capture.resolution = 32;
   capture_options.separate_lights = state.range(0) > 0;

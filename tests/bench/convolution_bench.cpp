@@ -4,9 +4,9 @@
 
 #include <memory>
 
-#include "basis/convolution.h"
-#include "basis/dense.h"
-#include "basis/quadtree.h"
+#include "basis/core/convolution.h"
+#include "basis/core/dense.h"
+#include "basis/core/quadtree.h"
 #include "bench_scenes.h"
 
 namespace basis::bench {

@@ -4,7 +4,7 @@
 #include <filesystem>
 #include <random>
 
-#include "basis/qt_file.h"
+#include "basis/format/qt_file.h"
 #include "bench_scenes.h"
 
 namespace basis::bench {

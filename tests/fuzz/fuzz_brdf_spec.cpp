@@ -3,7 +3,7 @@
 #include <cstdint>
 #include <string>
 
-#include "basis/brdf_spec.h"
+#include "basis/brdf/brdf_spec.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);

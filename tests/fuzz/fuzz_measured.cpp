@@ -4,8 +4,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "basis/merl.h"
-#include "basis/rgl.h"
+#include "basis/brdf/merl.h"
+#include "basis/brdf/rgl.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size == 0) return 0;

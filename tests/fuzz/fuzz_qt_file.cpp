@@ -3,8 +3,8 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "basis/convolution.h"
-#include "basis/qt_file.h"
+#include "basis/core/convolution.h"
+#include "basis/format/qt_file.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   try {
@@ -26,7 +26,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       const basis::CaptureSetView captures = file.captures();
       for (std::size_t k = 0; k < captures.size(); ++k)
         for (const basis::DirectionalLight& light : captures.lights_of(k))
-          if (!(light.direction[2] > 0) || !(light.energy[0] >= 0)) __builtin_trap();
+          if (!(light.direction.z() > 0) || !(light.energy[0] >= 0)) __builtin_trap();
     }
   } catch (const basis::FileError&) {
   }

@@ -8,8 +8,8 @@
 #include <fstream>
 #include <string>
 
-#include "basis/capture.h"
-#include "basis/mesh.h"
+#include "basis/lighting/capture.h"
+#include "basis/lighting/mesh.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size == 0) return 0;

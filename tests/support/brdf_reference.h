@@ -6,8 +6,8 @@
 #include <numbers>
 #include <vector>
 
-#include "basis/brdf.h"
-#include "basis/gauss_legendre.h"
+#include "basis/brdf/brdf.h"
+#include "basis/core/gauss_legendre.h"
 
 namespace basis::testing {
 

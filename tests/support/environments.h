@@ -9,9 +9,9 @@
 #include <optional>
 #include <string>
 
-#include "basis/environment.h"
-#include "basis/image.h"
-#include "basis/image_io.h"
+#include "basis/io/image.h"
+#include "basis/io/image_file.h"
+#include "basis/lighting/environment.h"
 
 namespace basis::testing {
 

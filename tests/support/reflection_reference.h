@@ -8,9 +8,9 @@
 #include <cstddef>
 #include <vector>
 
-#include "basis/brdf.h"
-#include "basis/environment.h"
-#include "basis/frame.h"
+#include "basis/brdf/brdf.h"
+#include "basis/core/frame.h"
+#include "basis/lighting/environment.h"
 
 namespace basis::testing {
 

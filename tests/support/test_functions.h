@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "basis/grid.h"
+#include "basis/core/grid.h"
 
 namespace basis::testing {
 

@@ -1,0 +1,117 @@
+// Reading, verifying and writing .qt files (FlatBuffers, schema formats/basis.fbs): one tree,
+// a BRDF table or a capture set. A loaded file is one aligned buffer viewed in place.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "basis/brdf/brdf_table.h"
+#include "basis/core/quadtree.h"
+#include "basis/core/tree_set.h"
+#include "basis/io/atomic_file.h"
+#include "basis/lighting/capture_set.h"
+
+namespace basis {
+
+// The newest format version this build reads. Version 2 added the capture sets' directional
+// lights; files are written as version 1 unless they hold lights, and version 1 reads as before.
+inline constexpr std::uint32_t kQtFormatVersion = 2;
+
+// Limits checked before anything is allocated from a file's claims.
+inline constexpr std::uint64_t kQtMaxFileBytes = (std::uint64_t(1) << 31) - 1;  // FlatBuffers
+inline constexpr int kQtMaxWoResolution = 256;
+
+enum class QtKind { tree, brdf_table, capture_set };
+const char* to_string(QtKind kind);
+
+// Where a file came from.
+struct Provenance {
+  std::string tool;
+  std::string tool_version;
+  std::string parameters;  // the tool's parameters, as JSON text
+  std::vector<std::string> sources;
+};
+
+// A loaded and verified .qt file. Move-only; the views it returns live as long as it does.
+class QtFile {
+ public:
+  // Reads and verifies a file. Throws FileError with one line "PATH: problem".
+  static QtFile load(const std::string& path);
+  // Verifies bytes held in memory (copied into aligned storage); `name` prefixes errors.
+  static QtFile from_bytes(std::span<const std::byte> bytes, const std::string& name);
+
+  QtFile(QtFile&&) = default;
+  QtFile& operator=(QtFile&&) = default;
+
+  QtKind kind() const { return kind_; }
+  std::uint32_t format_version() const { return version_; }
+  const std::string& name() const { return name_; }
+  std::size_t byte_size() const { return size_; }
+
+  TreeSetView trees() const { return trees_; }
+  ProjectionOptions projection() const { return projection_; }
+  // The single tree of a kind-tree file (the first tree otherwise).
+  QuadtreeView tree() const { return trees_.tree(0); }
+  // The table of a kind-brdf_table file; throws FileError for other kinds.
+  BrdfTableView brdf_table() const;
+  std::string brdf_model() const;
+  std::string brdf_spec() const;
+  // The captures of a kind-capture_set file; throws FileError for other kinds.
+  CaptureSetView captures() const;
+  Provenance provenance() const;
+
+ private:
+  QtFile() = default;
+  void verify();
+  // Checks one tree set of the buffer; `what` names it in errors.
+  TreeSetView verify_tree_set(const void* set, const std::string& what,
+                              ProjectionOptions* projection) const;
+  // The file's bytes, 16-byte aligned: a read-only memory map of a file, or a copy in memory.
+  class Buffer {
+   public:
+    Buffer() = default;
+    Buffer(Buffer&& other) noexcept { *this = std::move(other); }
+    Buffer& operator=(Buffer&& other) noexcept;
+    ~Buffer();
+    static Buffer map_file(int fd, std::size_t size);
+    static Buffer copy_of(std::span<const std::byte> bytes);
+    const void* data() const { return data_; }
+
+   private:
+    void* data_ = nullptr;
+    std::size_t mapped_size_ = 0;  // nonzero for a memory map
+    std::unique_ptr<Quad[]> copy_;
+  };
+  const void* buffer() const { return storage_.data(); }
+
+  Buffer storage_;
+  std::size_t size_ = 0;
+  std::string name_;
+  QtKind kind_ = QtKind::tree;
+  std::uint32_t version_ = 0;
+  ProjectionOptions projection_;
+  TreeSetView trees_;
+  TreeSetView tilt_;
+  int wo_resolution_ = 0;
+  CaptureSetView captures_;
+};
+
+// Complete .qt buffers. Throw std::invalid_argument for inconsistent input.
+std::vector<std::byte> encode_tree(const QuadtreeView& tree, const ProjectionOptions& projection,
+                                   const Provenance& provenance);
+std::vector<std::byte> encode_brdf_table(const BrdfTableView& table, const std::string& model,
+                                         const std::string& spec,
+                                         const ProjectionOptions& projection,
+                                         const Provenance& provenance);
+std::vector<std::byte> encode_capture_set(const CaptureSetView& captures,
+                                          const ProjectionOptions& projection,
+                                          const Provenance& provenance);
+
+// Writes an encoded buffer atomically (see atomic_file.h).
+void write_qt(const std::string& path, std::span<const std::byte> encoded);
+
+}  // namespace basis

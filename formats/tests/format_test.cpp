@@ -1,0 +1,407 @@
+// The .qt format: round trips keep bits and convolution results; corrupt, truncated, foreign
+// and future files are rejected with one clear line; writes are atomic.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "basis/core/convolution.h"
+#include "basis/format/qt_file.h"
+#include "basis_generated.h"
+#include "support/temp_dir.h"
+#include "support/test_functions.h"
+
+namespace basis {
+namespace {
+
+namespace fs = std::filesystem;
+
+using testing::TempDir;
+
+Provenance test_provenance() {
+  return {"format_test", "1", R"({"seed": 1})", {"a.json", "b.exr"}};
+}
+
+Quadtree sample_tree(int n, int channels, int which, double tolerance = 0.05) {
+  return project(testing::test_functions(n, channels, 17)[which].grid, {.tolerance = tolerance});
+}
+
+TreeSet sample_set(int count, int n, int channels) {
+  TreeSet set({n, channels, 1});
+  for (int i = 0; i < count; ++i)
+    set.append(sample_tree(n, channels, i % 6, 0.01 + 0.02 * i).view());
+  return set;
+}
+
+CaptureSet sample_captures(int count) {
+  CaptureSet c;
+  c.trees = sample_set(count, 32, 3);
+  for (int i = 0; i < count; ++i) {
+    c.positions.push_back({double(i), 2.5, -1e3});
+    const double a = 0.3 * i;
+    c.normals.push_back({std::sin(a), 0, std::cos(a)});
+    c.tangents.push_back({std::cos(a), 0, -std::sin(a)});
+    // Every other capture sees i % 3 lights (a sun kept apart), the rest none.
+    c.light_offsets.push_back(std::uint32_t(c.lights.size()));
+    for (int l = 0; l < (i % 2 ? i % 3 : 0); ++l) {
+      const double t = 0.2 + 0.3 * l;
+      c.lights.push_back({{std::sin(t), 0, std::cos(t)}, {1e3 * (i + 1), 2e3, 5.0 * l}});
+    }
+  }
+  c.light_offsets.push_back(std::uint32_t(c.lights.size()));
+  return c;
+}
+
+BrdfTable sample_table(int m) {
+  BrdfTable t;
+  t.wo_resolution = m;
+  t.trees = TreeSet({16, 1, 1});
+  t.tilt = TreeSet({16, 1, 2});
+  for (int k = 0; k < m * m; ++k) {
+    std::mt19937 rng(k);
+    std::uniform_real_distribution<float> unit(0, 1);
+    Grid g(16, 1, 1), d(16, 1, 2);
+    for (float& v : g.texels)
+      v = unit(rng) * (k % 3 == 0 ? 0.01f : 1.0f);
+    for (float& v : d.texels)
+      v = unit(rng) - 0.5f;
+    t.trees.append(project(g, {.tolerance = 0.1}).view());
+    t.tilt.append(project(d, {.tolerance = 0.1}).view());
+  }
+  t.model = "phong";
+  t.spec = R"({"model": "phong", "exponent": 100})";
+  return t;
+}
+
+bool same_bytes(std::span<const Quad> a, std::span<const Quad> b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size_bytes()) == 0;
+}
+
+std::vector<std::byte> read_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::vector<char> chars((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::vector<std::byte> bytes(chars.size());
+  std::memcpy(bytes.data(), chars.data(), chars.size());
+  return bytes;
+}
+
+void write_bytes(const std::string& path, std::span<const std::byte> bytes) {
+  std::ofstream out(path, std::ios::binary);
+  out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+}
+
+std::string load_error(std::span<const std::byte> bytes) {
+  try {
+    QtFile::from_bytes(bytes, "input.qt");
+  } catch (const FileError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(QtFormat, TreeRoundTripKeepsBitsAndConvolution) {
+  TempDir dir;
+  const Quadtree tree = sample_tree(64, 3, 1);
+  const ProjectionOptions projection{.tolerance = 0.05, .max_depth = 5};
+  write_qt(dir.file("tree.qt"), encode_tree(tree.view(), projection, test_provenance()));
+  const QtFile file = QtFile::load(dir.file("tree.qt"));
+  EXPECT_EQ(file.kind(), QtKind::tree);
+  EXPECT_EQ(file.format_version(), 1u);  // nothing in it needs version 2
+  EXPECT_TRUE(same_bytes(file.tree().nodes(), tree.nodes));
+  EXPECT_TRUE(same_bytes(file.tree().errors(), tree.errors));
+  EXPECT_EQ(file.tree().shape(), tree.shape);
+  EXPECT_EQ(file.projection().tolerance, 0.05);
+  EXPECT_EQ(file.projection().max_depth, 5);
+  // Zero copy: the loaded tree's nodes live inside the file's buffer, aligned for SSE.
+  EXPECT_EQ(reinterpret_cast<std::uintptr_t>(file.tree().nodes().data()) % 16, 0u);
+  const Quadtree other = sample_tree(32, 3, 2);
+  const Convolution a = convolve(tree.view(), other.view());
+  const Convolution b = convolve(file.tree(), other.view());
+  EXPECT_EQ(a.value, b.value);
+  EXPECT_EQ(a.bound, b.bound);
+  const Provenance p = file.provenance();
+  EXPECT_EQ(p.tool, "format_test");
+  EXPECT_EQ(p.parameters, R"({"seed": 1})");
+  EXPECT_EQ(p.sources, (std::vector<std::string>{"a.json", "b.exr"}));
+  // Encoding is deterministic: the same input gives the same bytes.
+  EXPECT_EQ(read_bytes(dir.file("tree.qt")),
+            encode_tree(file.tree(), file.projection(), file.provenance()));
+}
+
+TEST(QtFormat, BrdfTableRoundTrip) {
+  TempDir dir;
+  const BrdfTable table = sample_table(4);
+  write_qt(dir.file("t.qt"),
+           encode_brdf_table(table.view(), table.model, table.spec, {}, test_provenance()));
+  const QtFile file = QtFile::load(dir.file("t.qt"));
+  ASSERT_EQ(file.kind(), QtKind::brdf_table);
+  const BrdfTableView loaded = file.brdf_table();
+  EXPECT_EQ(loaded.wo_resolution, 4);
+  EXPECT_EQ(file.brdf_model(), "phong");
+  EXPECT_EQ(file.brdf_spec(), table.spec);
+  EXPECT_TRUE(same_bytes(loaded.trees.nodes(), table.trees.view().nodes()));
+  const Quadtree light = sample_tree(16, 1, 0);
+  ASSERT_TRUE(loaded.has_tilt());
+  EXPECT_TRUE(same_bytes(loaded.tilt.nodes(), table.tilt.view().nodes()));
+  for (int j = 0; j < 4; ++j)
+    for (int i = 0; i < 4; ++i) {
+      EXPECT_EQ(convolve(loaded.entry(i, j), light.view()).value,
+                convolve(table.view().entry(i, j), light.view()).value);
+      EXPECT_EQ(convolve_groups(loaded.tilt_entry(i, j), light.view()).value,
+                convolve_groups(table.view().tilt_entry(i, j), light.view()).value);
+    }
+  EXPECT_THROW(file.captures(), FileError);
+}
+
+TEST(QtFormat, CaptureSetRoundTrip) {
+  TempDir dir;
+  const CaptureSet captures = sample_captures(12);
+  write_qt(dir.file("c.qt"), encode_capture_set(captures.view(), {}, test_provenance()));
+  const QtFile file = QtFile::load(dir.file("c.qt"));
+  ASSERT_EQ(file.kind(), QtKind::capture_set);
+  EXPECT_EQ(file.format_version(), 2u);  // it holds lights
+  const CaptureSetView loaded = file.captures();
+  ASSERT_EQ(loaded.size(), 12u);
+  for (std::size_t i = 0; i < 12; ++i) {
+    EXPECT_EQ(loaded.positions[i], captures.positions[i]);
+    EXPECT_EQ(loaded.normals[i], captures.normals[i]);
+    EXPECT_EQ(loaded.tangents[i], captures.tangents[i]);
+    EXPECT_TRUE(same_bytes(loaded.trees.tree(i).nodes(), captures.trees.tree(i).nodes()));
+    const Convolution a = convolve(loaded.trees.tree(i), loaded.trees.tree((i + 1) % 12));
+    const Convolution b = convolve(captures.trees.tree(i), captures.trees.tree((i + 1) % 12));
+    EXPECT_EQ(a.value, b.value);
+    const auto lights = loaded.lights_of(i), expected = captures.view().lights_of(i);
+    ASSERT_EQ(lights.size(), expected.size()) << i;
+    for (std::size_t l = 0; l < lights.size(); ++l) {
+      EXPECT_EQ(lights[l].direction, expected[l].direction);
+      EXPECT_EQ(lights[l].energy, expected[l].energy);
+    }
+  }
+  EXPECT_GT(loaded.lights.size(), 0u);
+  EXPECT_THROW(file.brdf_table(), FileError);
+  // A set without lights stays without.
+  CaptureSet unlit = sample_captures(2);
+  unlit.lights.clear();
+  unlit.light_offsets.clear();
+  const QtFile plain = QtFile::from_bytes(encode_capture_set(unlit.view(), {}, {}), "plain.qt");
+  EXPECT_TRUE(plain.captures().light_offsets.empty());
+  EXPECT_EQ(plain.format_version(), 1u);
+  EXPECT_TRUE(plain.captures().lights_of(1).empty());
+}
+
+TEST(QtFormat, BadCaptureLightsAreNamed) {
+  auto error_of = [](const CaptureSet& c) {
+    return load_error(encode_capture_set(c.view(), {}, {}));
+  };
+  const CaptureSet good = sample_captures(6);
+  ASSERT_EQ(error_of(good), "");
+  ASSERT_GE(good.lights.size(), 2u);
+  CaptureSet below = good;
+  below.lights[0].direction = {0, std::sin(0.1), -std::cos(0.1)};
+  EXPECT_NE(error_of(below).find("capture light 0"), std::string::npos);
+  CaptureSet long_direction = good;
+  long_direction.lights[1].direction = {0, 0, 2};
+  EXPECT_NE(error_of(long_direction).find("capture light 1"), std::string::npos);
+  CaptureSet nan = good;
+  nan.lights[1].energy[2] = std::nan("");
+  EXPECT_NE(error_of(nan).find("energy negative or not finite"), std::string::npos);
+  CaptureSet negative = good;
+  negative.lights[0].energy[0] = -1;
+  EXPECT_NE(error_of(negative).find("energy negative or not finite"), std::string::npos);
+  // Offsets out of order: the encoder refuses them, and so does the reader of bytes changed
+  // after encoding (the offsets found by their values in the buffer).
+  ASSERT_EQ(good.light_offsets, (std::vector<std::uint32_t>{0, 0, 1, 1, 1, 1, 3}));
+  CaptureSet unsorted = good;
+  unsorted.light_offsets[1] = 2;
+  EXPECT_THROW(encode_capture_set(unsorted.view(), {}, {}), std::invalid_argument);
+  std::vector<std::byte> bytes = encode_capture_set(good.view(), {}, {});
+  const auto* offsets = reinterpret_cast<const std::byte*>(good.light_offsets.data());
+  const auto at = std::search(bytes.begin(), bytes.end(), offsets, offsets + 7 * 4);
+  ASSERT_NE(at, bytes.end());
+  const std::uint32_t two = 2;
+  std::memcpy(&*at + 4, &two, 4);
+  EXPECT_NE(load_error(bytes).find("light offsets"), std::string::npos);
+  CaptureSet short_offsets = good;
+  short_offsets.light_offsets.pop_back();
+  EXPECT_THROW(encode_capture_set(short_offsets.view(), {}, {}), std::invalid_argument);
+  CaptureSet no_offsets = good;
+  no_offsets.light_offsets.clear();
+  EXPECT_THROW(encode_capture_set(no_offsets.view(), {}, {}), std::invalid_argument);
+}
+
+// Every mutated or truncated buffer either loads as a valid file, whose trees then convolve
+// to finite values, or is rejected with a FileError; nothing else happens.
+TEST(QtFormat, MutatedAndTruncatedFilesLoadValidOrFailCleanly) {
+  const std::vector<std::vector<std::byte>> originals = {
+      encode_tree(sample_tree(32, 3, 1).view(), {}, test_provenance()),
+      encode_brdf_table(sample_table(2).view(), "phong", "{}", {}, test_provenance()),
+      encode_capture_set(sample_captures(3).view(), {}, test_provenance())};
+  const Quadtree probe = sample_tree(8, 1, 0);
+  std::mt19937 rng(2024);
+  int loaded = 0, rejected = 0;
+  for (int trial = 0; trial < 6000; ++trial) {
+    std::vector<std::byte> bytes = originals[trial % originals.size()];
+    std::uniform_int_distribution<std::size_t> position(0, bytes.size() - 1);
+    switch (trial % 4) {
+      case 0:  // truncate
+        bytes.resize(position(rng));
+        break;
+      case 1:  // flip a few bits
+        for (int k = 0; k < 1 + trial % 5; ++k)
+          bytes[position(rng)] ^= std::byte(1 << (rng() % 8));
+        break;
+      case 2:  // overwrite a run with random bytes
+        for (std::size_t p = position(rng), k = 0; k < 16 && p + k < bytes.size(); ++k)
+          bytes[p + k] = std::byte(rng());
+        break;
+      default:  // set a random 32-bit word to an extreme value
+        if (bytes.size() >= 8) {
+          const std::size_t p = position(rng) & ~std::size_t(3);
+          const std::uint32_t extremes[] = {0,           0xffffffffu, 0x7fffffffu,
+                                            0x80000000u, 1,           0x7fc00000u};
+          if (p + 4 <= bytes.size()) std::memcpy(&bytes[p], &extremes[rng() % 6], 4);
+        }
+    }
+    try {
+      const QtFile file = QtFile::from_bytes(bytes, "mutated.qt");
+      ++loaded;
+      for (std::size_t i = 0; i < file.trees().size(); ++i) {
+        if (file.trees().shape().channels != 1 && file.trees().shape().channels != 3) FAIL();
+        const Convolution c = convolve(file.trees().tree(i), probe.view());
+        for (float v : c.value)
+          ASSERT_FALSE(std::isnan(v));
+      }
+    } catch (const FileError& e) {
+      ++rejected;
+      ASSERT_EQ(std::string(e.what()).rfind("mutated.qt: ", 0), 0u) << e.what();
+      ASSERT_EQ(std::string(e.what()).find('\n'), std::string::npos);
+    }
+  }
+  EXPECT_GT(rejected, 3000);
+  EXPECT_GT(loaded, 0);  // mutations of values that stay valid
+}
+
+TEST(QtFormat, ForeignEmptyAndFutureFilesAreRejected) {
+  TempDir dir;
+  EXPECT_EQ(load_error({}), "input.qt: empty file, not a .qt file");
+  const std::string png = "\x89PNG\r\n\x1a\n\0\0\0\rIHDR";
+  EXPECT_EQ(load_error(std::as_bytes(std::span(png.data(), png.size()))),
+            "input.qt: not a .qt file (no BQTF identifier)");
+  const std::string text = "model: phong, exponent: 100\n";
+  EXPECT_EQ(load_error(std::as_bytes(std::span(text.data(), text.size()))),
+            "input.qt: not a .qt file (no BQTF identifier)");
+
+  // Another FlatBuffers file: the same schema under a different identifier.
+  {
+    flatbuffers::FlatBufferBuilder b;
+    const auto root = format::CreateFile(b, 1);
+    b.Finish(root, "XXXX");
+    EXPECT_EQ(load_error({reinterpret_cast<const std::byte*>(b.GetBufferPointer()), b.GetSize()}),
+              "input.qt: not a .qt file (no BQTF identifier)");
+  }
+  // Versions 1 (before directional lights) and 2 read; a future version, otherwise well
+  // formed, is refused.
+  const Quadtree tree = sample_tree(8, 1, 0);
+  for (const std::uint32_t version : {1u, kQtFormatVersion, kQtFormatVersion + 1}) {
+    flatbuffers::FlatBufferBuilder b;
+    const format::TreeExtent extent(0, tree.node_count());
+    const auto trees = format::CreateTreeSet(
+        b, 8, 1, 1, 0.05, format::ToleranceMode::Relative, 0, b.CreateVectorOfStructs(&extent, 1),
+        b.CreateVectorOfStructs(reinterpret_cast<const format::Quad*>(tree.nodes.data()),
+                                tree.nodes.size()),
+        b.CreateVectorOfStructs(reinterpret_cast<const format::Quad*>(tree.errors.data()),
+                                tree.errors.size()));
+    const auto root = format::CreateFile(b, version, format::Kind::Tree,
+                                         format::Mapping::CosineConcentric, trees);
+    format::FinishFileBuffer(b, root);
+    EXPECT_EQ(load_error({reinterpret_cast<const std::byte*>(b.GetBufferPointer()), b.GetSize()}),
+              version <= kQtFormatVersion ? ""
+                                          : "input.qt: format version " + std::to_string(version) +
+                                                " is newer than this build reads (" +
+                                                std::to_string(kQtFormatVersion) + ")");
+  }
+  EXPECT_THROW(QtFile::load(dir.file("missing.qt")), FileError);
+  try {
+    QtFile::load(dir.file("missing.qt"));
+  } catch (const FileError& e) {
+    EXPECT_EQ(std::string(e.what()), dir.file("missing.qt") + ": No such file or directory");
+  }
+  try {
+    QtFile::load(dir.file(""));
+    FAIL();
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("is a directory"), std::string::npos);
+  }
+  write_bytes(dir.file("empty.qt"), {});
+  EXPECT_THROW(QtFile::load(dir.file("empty.qt")), FileError);
+}
+
+// Structurally valid buffers whose trees break the format's rules.
+TEST(QtFormat, SemanticViolationsAreNamed) {
+  auto with_links = [](Quadtree tree, int node, int q, std::int32_t child) {
+    std::memcpy(reinterpret_cast<char*>(&tree.nodes[node * tree.shape.stride()]) + 4 * q, &child,
+                4);
+    return tree;
+  };
+  auto error_of = [](const Quadtree& tree) { return load_error(encode_tree(tree.view(), {}, {})); };
+  const Quadtree good = sample_tree(32, 1, 1);
+  ASSERT_GT(good.node_count(), 3);
+  ASSERT_EQ(error_of(good), "");
+  EXPECT_NE(error_of(with_links(good, 2, 0, 1)).find("children must follow their parent"),
+            std::string::npos);
+  EXPECT_NE(error_of(with_links(good, 0, 1, 1000000)).find("links to node 1000000"),
+            std::string::npos);
+  EXPECT_NE(error_of(with_links(good, 0, 0, -5)).find("links to node -5"), std::string::npos);
+  // A chain deeper than a resolution of 8 allows (3 levels of nodes).
+  Quadtree chain;
+  chain.shape = {8, 1, 1};
+  chain.nodes.resize(4 * 2);
+  chain.errors.resize(4);
+  for (int n = 0; n < 3; ++n)
+    chain = with_links(chain, n, 0, n + 1);
+  EXPECT_NE(error_of(chain).find("deeper than its resolution"), std::string::npos);
+  Quadtree nan = good;
+  nan.nodes[1].lane[2] = std::nanf("");
+  EXPECT_NE(error_of(nan).find("NaN or infinite"), std::string::npos);
+  Quadtree negative = good;
+  negative.errors[0].lane[1] = -1;
+  EXPECT_NE(error_of(negative).find("negative"), std::string::npos);
+  // Node 1 linked twice.
+  const int second_child = good.view().child(0, 1) ? 1 : 2;
+  Quadtree twice = with_links(good, 0, second_child, good.view().child(0, 0));
+  const std::string twice_error = error_of(twice);
+  EXPECT_TRUE(twice_error.find("two parents") != std::string::npos ||
+              twice_error.find("unreachable") != std::string::npos)
+      << twice_error;
+}
+
+TEST(QtFormat, WritesAreAtomic) {
+  TempDir dir;
+  const auto bytes = encode_tree(sample_tree(16, 1, 1).view(), {}, {});
+  // Missing folder: an error naming the path, nothing created.
+  EXPECT_THROW(write_qt(dir.file("no/such/folder/out.qt"), bytes), FileError);
+  // A folder as output.
+  fs::create_directories(dir.file("folder.qt"));
+  EXPECT_THROW(write_qt(dir.file("folder.qt"), bytes), FileError);
+  // A full device.
+  if (fs::exists("/dev/full")) {
+    EXPECT_THROW(write_qt("/dev/full", bytes), FileError);
+  }
+  // A failing writer leaves the old file untouched and no temporary behind.
+  write_qt(dir.file("keep.qt"), bytes);
+  EXPECT_THROW(write_file_atomically(dir.file("keep.qt"),
+                                     [](const std::string& temp) {
+                                       std::ofstream(temp) << "partial";
+                                       throw FileError("writer failed");
+                                     }),
+               FileError);
+  EXPECT_EQ(read_bytes(dir.file("keep.qt")), bytes);
+  EXPECT_EQ(dir.entries(), (std::vector<std::string>{"folder.qt", "keep.qt"}));
+}
+
+}  // namespace
+}  // namespace basis

@@ -1,0 +1,248 @@
+// BRDF models, specs and MERL files: physical sanity against analytic facts, spec errors that
+// name the file, line and field, and a MERL file written here from an analytic BRDF.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <numbers>
+#include <random>
+
+#include "basis/brdf/brdf_spec.h"
+#include "basis/brdf/brdf_table.h"
+#include "basis/brdf/merl.h"
+#include "support/brdf_reference.h"
+#include "support/temp_dir.h"
+
+namespace basis {
+namespace {
+
+using testing::TempDir;
+
+Vec3 random_direction(std::mt19937& rng) {
+  std::normal_distribution<double> g;
+  Vec3 v(g(rng), g(rng), std::abs(g(rng)) + 1e-3);
+  return v.normalized();
+}
+
+std::vector<Brdf> analytic_models() {
+  return {Lambert{{0.5, 0.6, 0.7}}, Phong{{0.2, 0.2, 0.2}, {0.5, 0.4, 0.3}, 50},
+          BlinnPhong{{0.1, 0.1, 0.1}, {0.6, 0.6, 0.6}, 200},
+          Ward{{0.3, 0.3, 0.3}, {0.2, 0.2, 0.2}, 0.15}, Ggx{{0.1, 0.1, 0.1}, {0.9, 0.6, 0.5}, 0.3}};
+}
+
+TEST(BrdfModels, AreReciprocalAndNonNegative) {
+  std::mt19937 rng(5);
+  for (const Brdf& b : analytic_models())
+    for (int k = 0; k < 2000; ++k) {
+      const Vec3 wi = random_direction(rng), wo = random_direction(rng);
+      const Color a = evaluate(b, wi, wo), c = evaluate(b, wo, wi);
+      for (int ch = 0; ch < 3; ++ch) {
+        EXPECT_GE(a[ch], 0) << model_name(b);
+        EXPECT_NEAR(a[ch], c[ch], 1e-9 * (1 + a[ch])) << model_name(b);
+      }
+      EXPECT_EQ(evaluate(b, Vec3(wi.x(), wi.y(), -wi.z()), wo)[0], 0);
+    }
+}
+
+TEST(BrdfModels, NormalisedLobesReflectEverythingAtNormalIncidence) {
+  // Normalised Phong: the lobe around the normal integrates (with cos) to exactly ks.
+  for (double n : {1.0, 10.0, 100.0, 1000.0}) {
+    const Brdf phong = Phong{{0.25, 0.25, 0.25}, {0.5, 0.5, 0.5}, n};
+    EXPECT_NEAR(testing::reference_albedo(phong, Vec3::UnitZ(), 0), 0.75, 1e-4) << n;
+  }
+  // GGX: the normal distribution is normalised, integral of D(h) h.z over the hemisphere = 1.
+  for (double alpha : {0.02, 0.2, 1.0}) {
+    const double a2 = alpha * alpha;
+    const double d = testing::integrate_around(Vec3::UnitZ(), [&](const Vec3& h) {
+      if (h.z() <= 0) return 0.0;
+      const double t = h.z() * h.z() * (a2 - 1) + 1;
+      return a2 / (std::numbers::pi * t * t) * h.z();
+    });
+    EXPECT_NEAR(d, 1, 1e-4) << alpha;
+  }
+  // Lambert albedo is the albedo.
+  EXPECT_NEAR(testing::reference_albedo(Lambert{{0.3, 0.3, 0.3}}, Vec3(0.6, 0, 0.8), 0), 0.3, 1e-4);
+}
+
+std::string write_spec(const TempDir& dir, const std::string& name, const std::string& text) {
+  const std::string path = dir.file(name);
+  std::ofstream(path) << text;
+  return path;
+}
+
+std::string spec_error(const TempDir& dir, const std::string& text) {
+  const std::string path = write_spec(dir, "spec.json", text);
+  try {
+    read_brdf_spec(path);
+  } catch (const FileError& e) {
+    return std::string(e.what()).substr(path.size());
+  }
+  return "no error";
+}
+
+TEST(BrdfSpec, ReadsEveryModel) {
+  TempDir dir;
+  const BrdfSpec phong = read_brdf_spec(
+      write_spec(dir, "p.json",
+                 R"({"model": "phong", "kd": [0.5, 0.4, 0.3], "ks": 0.2, "exponent": 40,
+          "table": {"wo_res": 9, "wi_res": 32, "tolerance": 0.02}})"));
+  ASSERT_TRUE(std::holds_alternative<Phong>(phong.brdf));
+  EXPECT_EQ(std::get<Phong>(phong.brdf).kd, (Color{0.5, 0.4, 0.3}));
+  EXPECT_EQ(std::get<Phong>(phong.brdf).ks, (Color{0.2, 0.2, 0.2}));
+  EXPECT_EQ(std::get<Phong>(phong.brdf).exponent, 40);
+  EXPECT_EQ(phong.wo_resolution, 9);
+  EXPECT_EQ(phong.wi_resolution, 32);
+  EXPECT_EQ(phong.tolerance, 0.02);
+  EXPECT_EQ(channel_count(phong.brdf), 3);
+  const BrdfSpec ggx =
+      read_brdf_spec(write_spec(dir, "g.json", R"({"model": "ggx", "f0": 0.04, "alpha": 0.2})"));
+  EXPECT_EQ(std::get<Ggx>(ggx.brdf).kd, (Color{0, 0, 0}));
+  EXPECT_EQ(channel_count(ggx.brdf), 1);
+  EXPECT_TRUE(std::holds_alternative<Lambert>(
+      read_brdf_spec(write_spec(dir, "l.json", R"({"model": "lambert", "albedo": 0.8})")).brdf));
+  EXPECT_TRUE(std::holds_alternative<Ward>(
+      read_brdf_spec(write_spec(dir, "w.json", R"({"model": "ward", "ks": 0.2, "alpha": 0.1})"))
+          .brdf));
+  EXPECT_TRUE(std::holds_alternative<BlinnPhong>(
+      read_brdf_spec(
+          write_spec(dir, "b.json", R"({"model": "blinn-phong", "ks": 0.2, "exponent": 8})"))
+          .brdf));
+}
+
+TEST(BrdfSpec, ErrorsNameFileLineAndField) {
+  TempDir dir;
+  EXPECT_EQ(spec_error(dir, "{\n  \"model\": \"phong\",\n  \"ks\": 0.4\n}"),
+            ":1: field 'exponent': missing (a number from 0 to 1e+06)");
+  EXPECT_EQ(spec_error(dir, "{\"model\": \"phong\",\n\"ks\": 0.4,\n\"exponent\": -3}"),
+            ":3: field 'exponent': must be from 0 to 1e+06, got -3");
+  EXPECT_EQ(spec_error(dir, "{\"model\": \"phong\", \"ks\": [1, 2], \"exponent\": 3}"),
+            ":1: field 'ks': must be a number or an array [r, g, b] of three numbers");
+  EXPECT_EQ(spec_error(dir, "{\"model\": \"glass\"}"),
+            ":1: field 'model': unknown model 'glass' (lambert, phong, blinn-phong, ward, ggx, "
+            "merl, rgl)");
+  EXPECT_EQ(spec_error(dir, "{\"model\": \"lambert\",\n \"albedo\": 0.5,\n \"albeedo\": 1}"),
+            ":3: field 'albeedo': unknown field (expected one of: albedo, model, name, table)");
+  EXPECT_EQ(spec_error(dir, "{\"model\": \"ggx\", \"f0\": 0.04, \"alpha\": \"rough\"}"),
+            ":1: field 'alpha': must be a number, got string");
+  EXPECT_EQ(spec_error(dir, "{\"model\": \"ggx\", \"f0\": 0.04, \"alpha\": 0}"),
+            ":1: field 'alpha': must be from 0.001 to 1, got 0");
+  EXPECT_EQ(
+      spec_error(dir, "{\"model\": \"lambert\", \"albedo\": 0.5,\n \"table\": {\"wi_res\": 3.5}}"),
+      ":2: field 'table.wi_res': must be a whole number");
+  const std::string bad_json = spec_error(dir, "{\"model\": \"lambert\",\n \"albedo\": NaN}");
+  EXPECT_EQ(bad_json.rfind(":2: invalid JSON: ", 0), 0u) << bad_json;
+  EXPECT_EQ(spec_error(dir, "{\"model\": \"phong\", \"ks\": 0.4, \"exponent\": 1e400}"),
+            ": invalid JSON: a number is out of range");
+  EXPECT_EQ(spec_error(dir, "[1, 2]"), ":1: a BRDF spec is a JSON object {\"model\": ..., ...}");
+  EXPECT_THROW(read_brdf_spec(dir.file("missing.json")), FileError);
+  EXPECT_THROW(read_brdf_spec(dir.path()), FileError);
+}
+
+// A MERL file written from an analytic BRDF: the value at every bin centre, through the
+// half/difference parametrisation inverted here independently of the reader.
+void write_merl(const std::string& path, const Brdf& brdf, bool mark_missing = false) {
+  const int nh = 90, nd = 90, np = 180;
+  std::vector<double> samples(3 * std::size_t(nh) * nd * np);
+  for (int i = 0; i < nh; ++i)
+    for (int j = 0; j < nd; ++j)
+      for (int k = 0; k < np; ++k) {
+        const double theta_h = std::pow((i + 0.5) / nh, 2) * std::numbers::pi / 2;
+        const double theta_d = (j + 0.5) / nd * std::numbers::pi / 2;
+        const double phi_d = (k + 0.5) / np * std::numbers::pi;
+        const Vec3 h(std::sin(theta_h), 0, std::cos(theta_h));
+        const Vec3 d(std::sin(theta_d) * std::cos(phi_d), std::sin(theta_d) * std::sin(phi_d),
+                     std::cos(theta_d));
+        // wi = R_y(theta_h) d (phi_h = 0), wo its mirror about h.
+        const Vec3 wi(d.x() * std::cos(theta_h) + d.z() * std::sin(theta_h), d.y(),
+                      -d.x() * std::sin(theta_h) + d.z() * std::cos(theta_h));
+        const Vec3 wo = 2 * wi.dot(h) * h - wi;
+        const Color f = evaluate(brdf, wi, wo);
+        const std::size_t index = (std::size_t(i) * nd + j) * np + k;
+        const bool missing = mark_missing && (index % 7 == 0);
+        for (int c = 0; c < 3; ++c)
+          samples[c * std::size_t(nh) * nd * np + index] =
+              missing ? -1.0 : f[c] / MerlBrdf::kScale[c];
+      }
+  std::ofstream out(path, std::ios::binary);
+  const std::int32_t dims[3] = {nh, nd, np};
+  out.write(reinterpret_cast<const char*>(dims), sizeof dims);
+  out.write(reinterpret_cast<const char*>(samples.data()), std::streamsize(samples.size() * 8));
+}
+
+TEST(MerlBrdf, FileFromAnalyticBrdfReproducesItsAlbedo) {
+  TempDir dir;
+  const Brdf analytic = BlinnPhong{{0.3, 0.2, 0.1}, {0.5, 0.5, 0.5}, 30};
+  write_merl(dir.file("analytic.binary"), analytic);
+  std::ofstream(dir.file("merl.json")) << R"({"model": "merl", "file": "analytic.binary"})";
+  const BrdfSpec spec = read_brdf_spec(dir.file("merl.json"));  // relative to the spec
+  ASSERT_EQ(model_name(spec.brdf), "merl");
+  BrdfTableOptions options;
+  options.wo_resolution = 9;
+  options.wi_resolution = 32;
+  options.tilt_derivatives = false;
+  const BrdfTable table = tabulate_brdf(spec.brdf, options);
+  Grid one(2, 1);
+  for (float& t : one.texels)
+    t = 1;
+  const Quadtree light = project(one);
+  // At table entries (s = 0, 0.25, 0.5, 0.75 on the 9 x 9 grid: 0, 28, 53 and 74 degrees), so
+  // that the interpolation between entries (tested elsewhere) does not enter.
+  for (int i = 4; i < 8; ++i) {
+    const Vec3 wo = table_outgoing(i, 4, 9);
+    const double theta = std::acos(wo.z()) * 180 / std::numbers::pi;
+    const Convolution c = reflect(table.view(), light.view(), wo);
+    for (int ch = 0; ch < 3; ++ch) {
+      const double expected = testing::reference_albedo(analytic, wo, ch);
+      EXPECT_NEAR(c.value[ch], expected, 0.02 * expected) << theta << " channel " << ch;
+    }
+  }
+}
+
+TEST(MerlBrdf, MissingSamplesCountAsZeroAndBadFilesAreErrors) {
+  TempDir dir;
+  const Brdf analytic = Lambert{{0.5, 0.5, 0.5}};
+  write_merl(dir.file("holes.binary"), analytic, true);
+  const auto merl = MerlBrdf::read(dir.file("holes.binary"));
+  EXPECT_NEAR(merl->missing_fraction(), 1.0 / 7, 1e-3);
+  std::mt19937 rng(1);
+  int zeros = 0;
+  for (int k = 0; k < 5000; ++k) {
+    const Color f = merl->evaluate(random_direction(rng), random_direction(rng));
+    if (f[0] == 0) {
+      ++zeros;
+    } else {
+      EXPECT_NEAR(f[0], 0.5 / std::numbers::pi, 1e-9);
+    }
+  }
+  EXPECT_NEAR(zeros / 5000.0, 1.0 / 7, 0.03);
+
+  {
+    std::ofstream bad(dir.file("header.binary"), std::ios::binary);
+    const std::int32_t dims[3] = {90, 90, 360};
+    bad.write(reinterpret_cast<const char*>(dims), sizeof dims);
+  }
+  try {
+    MerlBrdf::read(dir.file("header.binary"));
+    FAIL();
+  } catch (const FileError& e) {
+    EXPECT_EQ(std::string(e.what()), dir.file("header.binary") +
+                                         ": not a MERL BRDF (dimensions 90 x 90 x 360, "
+                                         "expected 90 x 90 x 180)");
+  }
+  {
+    std::ofstream s(dir.file("short.binary"), std::ios::binary);
+    const std::int32_t dims[3] = {90, 90, 180};
+    s.write(reinterpret_cast<const char*>(dims), sizeof dims);
+    s << "only a few bytes";
+  }
+  try {
+    MerlBrdf::read(dir.file("short.binary"));
+    FAIL();
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("truncated MERL file"), std::string::npos) << e.what();
+  }
+  std::ofstream(dir.file("tiny.binary")) << "x";
+  EXPECT_THROW(MerlBrdf::read(dir.file("tiny.binary")), FileError);
+}
+
+}  // namespace
+}  // namespace basis

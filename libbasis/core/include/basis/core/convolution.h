@@ -1,0 +1,50 @@
+// Convolution of quadtrees (Vostryakov, section 2.3): the integral over the unit square of the
+// product of two or more trees, by simultaneous descent, with a certified error bound.
+#pragma once
+
+#include <array>
+#include <span>
+
+#include "basis/core/color.h"
+#include "basis/core/quadtree.h"
+
+namespace basis {
+
+// Result of a convolution, per channel. A single-channel result is repeated in all three lanes.
+struct Convolution {
+  Rgb value{};  // integral over [0,1]^2 of a(u,v) b(u,v) du dv (group 0 of both trees)
+  Rgb bound{};  // |value - integral of the product of the trees' full-resolution grids| <= bound
+};
+
+// Channel counts must be equal or one of them 1 (a grey function against RGB). Trees of
+// different resolutions convolve as the piecewise-constant functions they are. The value is
+// exact for the two trees; the bound covers the difference to the product of the source grids:
+// on every quadrant where the descent stops it adds area * min(ea * eb, ea * |b|, eb * |a|),
+// ea, eb the quadrants' error bounds, valid for non-negative functions.
+// For the hemisphere integral of A * B * cos in the cosine-weighted map, multiply by pi.
+Convolution convolve(const QuadtreeView& a, const QuadtreeView& b);
+
+// The value alone: the fastest path (SSE, four quadrants per instruction).
+Rgb convolve_value(const QuadtreeView& a, const QuadtreeView& b);
+
+// Portable recursive scalar implementation of convolve (double accumulation), the reference
+// for the SIMD path.
+Convolution convolve_scalar(const QuadtreeView& a, const QuadtreeView& b);
+
+// Each channel group of `a` (1 to 3 groups) against group 0 of `b`, in one descent: value[g]
+// is the integral of a_g * b (groups a lacks are zero); bound is convolve()'s bound for group 0.
+// Used for rotation compensation.
+struct GroupConvolution {
+  std::array<Rgb, 3> value{};
+  Rgb bound{};
+};
+GroupConvolution convolve_groups(const QuadtreeView& a, const QuadtreeView& b);
+
+// Integral over [0,1]^2 of the product of several trees (group 0; at least one). The descent
+// stops on a quadrant as soon as all factors but one are leaves there.
+Rgb convolve_product(std::span<const QuadtreeView> factors);
+
+// Whether the SIMD path is compiled in (otherwise convolve falls back to the scalar path).
+bool convolution_uses_simd();
+
+}  // namespace basis

@@ -1,0 +1,388 @@
+#include "basis/core/convolution.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+
+#if defined(__SSE2__)
+#include <immintrin.h>
+#endif
+
+namespace basis {
+
+namespace {
+
+[[noreturn, gnu::cold, gnu::noinline]] void throw_incompatible(int a, int b) {
+  throw std::invalid_argument("cannot convolve trees of " + std::to_string(a) + " and " +
+                              std::to_string(b) + " channels");
+}
+
+inline void check_compatible(const QuadtreeShape& a, const QuadtreeShape& b) {
+  if (a.channels != b.channels && a.channels != 1 && b.channels != 1) [[unlikely]]
+    throw_incompatible(a.channels, b.channels);
+}
+
+// ---------------------------------------------------------------- portable scalar reference
+
+struct ScalarSums {
+  double value[3] = {};
+  double bound[3] = {};
+};
+
+void descend_scalar(const QuadtreeView& a, const QuadtreeView& b, int na, int nb, double area,
+                    int channels, ScalarSums& sums) {
+  const int ca_count = a.shape().channels, cb_count = b.shape().channels;
+  for (int q = 0; q < 4; ++q) {
+    const int child_a = a.child(na, q), child_b = b.child(nb, q);
+    if (child_a && child_b) {
+      descend_scalar(a, b, child_a, child_b, area / 4, channels, sums);
+      continue;
+    }
+    for (int c = 0; c < channels; ++c) {
+      const int ca = ca_count == 1 ? 0 : c, cb = cb_count == 1 ? 0 : c;
+      const double va = a.value(na, 0, ca, q), vb = b.value(nb, 0, cb, q);
+      const double ea = a.error(na, ca, q), eb = b.error(nb, cb, q);
+      sums.value[c] += va * vb * area;
+      sums.bound[c] += area * std::min({ea * eb, ea * std::abs(vb), eb * std::abs(va)});
+    }
+  }
+}
+
+// ---------------------------------------------------------------- SSE path
+
+#if defined(__SSE2__)
+
+inline __m128 abs_ps(__m128 x) {
+  return _mm_andnot_ps(_mm_set1_ps(-0.0f), x);
+}
+
+// Lane sums of C accumulators (C = 1 or 3) into out[0..C-1]; out has room for four floats.
+template <int C>
+inline void store_lane_sums(const __m128 (&v)[C], float* out) {
+  if constexpr (C == 1) {
+    const __m128 pairs = _mm_add_ps(v[0], _mm_movehl_ps(v[0], v[0]));
+    _mm_store_ss(out, _mm_add_ss(pairs, _mm_shuffle_ps(pairs, pairs, 1)));
+  } else {
+    const __m128 t = _mm_hadd_ps(v[0], v[1]);
+    const __m128 u = _mm_hadd_ps(v[2], v[2]);
+    _mm_storeu_ps(out, _mm_hadd_ps(t, u));
+  }
+}
+
+// Simultaneous descent of a (groups 0..GA-1) and b (group 0). Where either quadrant is a leaf,
+// adds a * b * area (masked lanes); queues the quadrants where both trees go on. Pairs are
+// taken first-in first-out (breadth first), so that consecutive pairs do not depend on each
+// other and their loads overlap, and all pairs of one level share one quadrant area. When the
+// ring is full the pending quadrants descend in a nested call.
+template <int CA, int CB, int GA, bool kBound>
+class SseDescent {
+ public:
+  static constexpr int C = CA > CB ? CA : CB;
+  struct Sums {
+    __m128 value[GA][C];
+    __m128 bound[C];
+  };
+
+  SseDescent(const QuadtreeView& a, const QuadtreeView& b)
+      : nodes_a_(a.nodes().data()),
+        nodes_b_(b.nodes().data()),
+        errors_a_(a.errors().data()),
+        errors_b_(b.errors().data()),
+        stride_a_(a.shape().stride()),
+        stride_b_(b.shape().stride()) {}
+
+  // Integral over the cell of nodes (root_a, root_b), whose quadrants have area quadrant_area.
+  Sums run(std::int32_t root_a, std::int32_t root_b, float quadrant_area, int depth = 0) const {
+    if (depth > kMaxTreeLevels) throw std::runtime_error("quadtree deeper than its resolution");
+    __m128 value[GA][C], bound[C];
+    for (int c = 0; c < C; ++c) {
+      for (int g = 0; g < GA; ++g)
+        value[g][c] = _mm_setzero_ps();
+      bound[c] = _mm_setzero_ps();
+    }
+    const Quad* const nodes_a = nodes_a_;
+    const Quad* const nodes_b = nodes_b_;
+    const std::size_t stride_a = stride_a_, stride_b = stride_b_;
+    const __m128i zero = _mm_setzero_si128();
+
+    // Pending pairs as (node a, node b) lanes of 64 bits; the root pair is taken directly.
+    alignas(16) std::int64_t ring[kRing];
+    unsigned head = 0, tail = 0, level_end = 0;
+    float area = quadrant_area;
+    std::int32_t na = root_a, nb = root_b;
+    for (;;) {
+      const Quad* qa = nodes_a + na * stride_a;
+      const Quad* qb = nodes_b + nb * stride_b;
+      const __m128i links_a = _mm_load_si128(reinterpret_cast<const __m128i*>(qa));
+      const __m128i links_b = _mm_load_si128(reinterpret_cast<const __m128i*>(qb));
+      const __m128 leaf = _mm_castsi128_ps(
+          _mm_or_si128(_mm_cmpeq_epi32(links_a, zero), _mm_cmpeq_epi32(links_b, zero)));
+      const __m128 leaf_area = _mm_and_ps(leaf, _mm_set1_ps(area));
+      for (int c = 0; c < C; ++c) {
+        const __m128 vb = _mm_load_ps(qb[1 + (CB == 1 ? 0 : c)].lane);
+        for (int g = 0; g < GA; ++g) {
+          const __m128 va = _mm_load_ps(qa[1 + g * CA + (CA == 1 ? 0 : c)].lane);
+          value[g][c] = _mm_add_ps(value[g][c], _mm_mul_ps(_mm_mul_ps(va, vb), leaf_area));
+        }
+        if constexpr (kBound) {
+          const __m128 va = _mm_load_ps(qa[1 + (CA == 1 ? 0 : c)].lane);
+          const __m128 ea = _mm_load_ps(errors_a_[na * CA + (CA == 1 ? 0 : c)].lane);
+          const __m128 eb = _mm_load_ps(errors_b_[nb * CB + (CB == 1 ? 0 : c)].lane);
+          const __m128 term =
+              _mm_min_ps(_mm_mul_ps(ea, eb),
+                         _mm_min_ps(_mm_mul_ps(ea, abs_ps(vb)), _mm_mul_ps(eb, abs_ps(va))));
+          bound[c] = _mm_add_ps(bound[c], _mm_mul_ps(term, leaf_area));
+        }
+      }
+      const int internal = ~_mm_movemask_ps(leaf) & 0xF;
+      if (internal)
+        enqueue(internal, links_a, links_b, ring, head, tail, area, depth, value, bound);
+      if (head == tail) break;
+      if (head == level_end) {  // the next level starts: quadrants are a quarter the size
+        area *= 0.25f;
+        level_end = tail;
+      }
+      const __m128i pair = _mm_loadl_epi64(reinterpret_cast<const __m128i*>(&ring[head++ & kMask]));
+      na = _mm_cvtsi128_si32(pair);
+      nb = _mm_cvtsi128_si32(_mm_srli_si128(pair, 4));
+    }
+    Sums sums;
+    for (int c = 0; c < C; ++c) {
+      for (int g = 0; g < GA; ++g)
+        sums.value[g][c] = value[g][c];
+      sums.bound[c] = bound[c];
+    }
+    return sums;
+  }
+
+ private:
+  static constexpr unsigned kRing = 128, kMask = kRing - 1;
+
+  // Queues the internal quadrants of a pair whose quadrants have the given area; when the ring
+  // has no room, descends them in nested calls and adds their sums.
+  [[gnu::always_inline]] void enqueue(int internal, __m128i links_a, __m128i links_b,
+                                      std::int64_t* ring, unsigned head, unsigned& tail, float area,
+                                      int depth, __m128 (&value)[GA][C], __m128 (&bound)[C]) const {
+    const __m128i low = _mm_unpacklo_epi32(links_a, links_b);   // (a0 b0) (a1 b1)
+    const __m128i high = _mm_unpackhi_epi32(links_a, links_b);  // (a2 b2) (a3 b3)
+    if (tail - head > kRing - 4) [[unlikely]] {
+      const Sums nested = descend_now(internal, low, high, area * 0.25f, depth + 1);
+      for (int c = 0; c < C; ++c) {
+        for (int g = 0; g < GA; ++g)
+          value[g][c] = _mm_add_ps(value[g][c], nested.value[g][c]);
+        bound[c] = _mm_add_ps(bound[c], nested.bound[c]);
+      }
+      return;
+    }
+    // Branchless enqueue: every quadrant is written, the tail passes internal ones only.
+    auto slot = [&] { return reinterpret_cast<__m128i*>(&ring[tail & kMask]); };
+    _mm_storel_epi64(slot(), low);
+    tail += internal & 1;
+    _mm_storel_epi64(slot(), _mm_srli_si128(low, 8));
+    tail += (internal >> 1) & 1;
+    _mm_storel_epi64(slot(), high);
+    tail += (internal >> 2) & 1;
+    _mm_storel_epi64(slot(), _mm_srli_si128(high, 8));
+    tail += (internal >> 3) & 1;
+  }
+
+  // Sums of the internal quadrants' pairs, each descended by its own call.
+  [[gnu::noinline]] Sums descend_now(int internal, __m128i low, __m128i high, float area,
+                                     int depth) const {
+    alignas(16) std::int32_t pairs[8];
+    _mm_store_si128(reinterpret_cast<__m128i*>(pairs), low);
+    _mm_store_si128(reinterpret_cast<__m128i*>(pairs + 4), high);
+    Sums total{};
+    for (int q = 0; q < 4; ++q)
+      if (internal >> q & 1) {
+        const Sums nested = run(pairs[2 * q], pairs[2 * q + 1], area, depth);
+        for (int c = 0; c < C; ++c) {
+          for (int g = 0; g < GA; ++g)
+            total.value[g][c] = _mm_add_ps(total.value[g][c], nested.value[g][c]);
+          total.bound[c] = _mm_add_ps(total.bound[c], nested.bound[c]);
+        }
+      }
+    return total;
+  }
+
+  const Quad* nodes_a_;
+  const Quad* nodes_b_;
+  const Quad* errors_a_;
+  const Quad* errors_b_;
+  std::size_t stride_a_, stride_b_;
+};
+
+template <int CA, int CB, int GA, bool kBound>
+void descend_sse(const QuadtreeView& a, const QuadtreeView& b, float (&value)[GA][4],
+                 float (&bound)[4]) {
+  using Descent = SseDescent<CA, CB, GA, kBound>;
+  const typename Descent::Sums sums = Descent(a, b).run(0, 0, 0.25f);
+  for (int g = 0; g < GA; ++g)
+    store_lane_sums<Descent::C>(sums.value[g], value[g]);
+  if constexpr (kBound) store_lane_sums<Descent::C>(sums.bound, bound);
+}
+
+template <int GA, bool kBound>
+void dispatch_sse(const QuadtreeView& a, const QuadtreeView& b, float (&value)[GA][4],
+                  float (&bound)[4]) {
+  const int ca = a.shape().channels, cb = b.shape().channels;
+  if (ca == 1 && cb == 1) return descend_sse<1, 1, GA, kBound>(a, b, value, bound);
+  if (ca == 1) return descend_sse<1, 3, GA, kBound>(a, b, value, bound);
+  if (cb == 1) return descend_sse<3, 1, GA, kBound>(a, b, value, bound);
+  return descend_sse<3, 3, GA, kBound>(a, b, value, bound);
+}
+
+#endif  // __SSE2__
+
+// ---------------------------------------------------------------- N-ary product
+
+struct FactorState {
+  int node;        // node index, or -1 once the factor is constant over the cell
+  float value[3];  // the factor's value when constant
+};
+
+constexpr int kMaxFactors = 8;
+
+void descend_product(std::span<const QuadtreeView> factors, const FactorState* states, double area,
+                     int channels, double (&sum)[3]) {
+  const int k = int(factors.size());
+  for (int q = 0; q < 4; ++q) {
+    FactorState next[kMaxFactors];
+    int internal = 0;
+    for (int f = 0; f < k; ++f) {
+      next[f] = states[f];
+      if (states[f].node < 0) continue;
+      const QuadtreeView& t = factors[f];
+      const int nc = t.shape().channels;
+      for (int c = 0; c < 3; ++c)
+        next[f].value[c] = t.value(states[f].node, 0, nc == 1 ? 0 : c, q);
+      const int child = t.child(states[f].node, q);
+      next[f].node = child ? child : -1;
+      internal += child != 0;
+    }
+    // With at most one factor still refined, its quadrant average is exact for the integral.
+    if (internal <= 1) {
+      for (int c = 0; c < channels; ++c) {
+        double product = area;
+        for (int f = 0; f < k; ++f)
+          product *= next[f].value[c];
+        sum[c] += product;
+      }
+      continue;
+    }
+    descend_product(factors, next, area / 4, channels, sum);
+  }
+}
+
+}  // namespace
+
+bool convolution_uses_simd() {
+#if defined(__SSE2__)
+  return true;
+#else
+  return false;
+#endif
+}
+
+Convolution convolve_scalar(const QuadtreeView& a, const QuadtreeView& b) {
+  check_compatible(a.shape(), b.shape());
+  const int channels = std::max(a.shape().channels, b.shape().channels);
+  ScalarSums sums;
+  descend_scalar(a, b, 0, 0, 0.25, channels, sums);
+  return {channels_to_rgb(sums.value, channels), channels_to_rgb(sums.bound, channels)};
+}
+
+Convolution convolve(const QuadtreeView& a, const QuadtreeView& b) {
+#if defined(__SSE2__)
+  check_compatible(a.shape(), b.shape());
+  const int channels = std::max(a.shape().channels, b.shape().channels);
+  float value[1][4] = {}, bound[4] = {};
+  dispatch_sse<1, true>(a, b, value, bound);
+  return {channels_to_rgb(value[0], channels), channels_to_rgb(bound, channels)};
+#else
+  return convolve_scalar(a, b);
+#endif
+}
+
+Rgb convolve_value(const QuadtreeView& a, const QuadtreeView& b) {
+#if defined(__SSE2__)
+  check_compatible(a.shape(), b.shape());
+  const int channels = std::max(a.shape().channels, b.shape().channels);
+  float value[1][4] = {}, bound[4] = {};
+  dispatch_sse<1, false>(a, b, value, bound);
+  return channels_to_rgb(value[0], channels);
+#else
+  return convolve_scalar(a, b).value;
+#endif
+}
+
+GroupConvolution convolve_groups(const QuadtreeView& a, const QuadtreeView& b) {
+  check_compatible(a.shape(), b.shape());
+  const int channels = std::max(a.shape().channels, b.shape().channels);
+  GroupConvolution result;
+#if defined(__SSE2__)
+  float bound[4] = {};
+  auto run = [&]<int G>() {
+    float value[G][4] = {};
+    dispatch_sse<G, true>(a, b, value, bound);
+    for (int g = 0; g < G; ++g)
+      result.value[g] = channels_to_rgb(value[g], channels);
+  };
+  switch (a.shape().groups) {
+    case 1:
+      run.operator()<1>();
+      break;
+    case 2:
+      run.operator()<2>();
+      break;
+    default:
+      run.operator()<3>();
+  }
+  result.bound = channels_to_rgb(bound, channels);
+#else
+  // Portable path: one scalar descent per group.
+  for (int g = 0; g < a.shape().groups; ++g) {
+    double sum[3] = {};
+    auto visit = [&](auto&& self, int na, int nb, double area) -> void {
+      for (int q = 0; q < 4; ++q) {
+        const int ca = a.child(na, q), cb = b.child(nb, q);
+        if (ca && cb) {
+          self(self, ca, cb, area / 4);
+          continue;
+        }
+        for (int c = 0; c < channels; ++c)
+          sum[c] += area * a.value(na, g, a.shape().channels == 1 ? 0 : c, q) *
+                    b.value(nb, 0, b.shape().channels == 1 ? 0 : c, q);
+      }
+    };
+    visit(visit, 0, 0, 0.25);
+    result.value[g] = channels_to_rgb(sum, channels);
+  }
+  result.bound = convolve_scalar(a, b).bound;
+#endif
+  return result;
+}
+
+Rgb convolve_product(std::span<const QuadtreeView> factors) {
+  if (factors.empty() || factors.size() > kMaxFactors)
+    throw std::invalid_argument("a product takes 1 to " + std::to_string(kMaxFactors) +
+                                " trees, got " + std::to_string(factors.size()));
+  int channels = 1;
+  for (const QuadtreeView& f : factors) {
+    check_compatible(factors[0].shape(), f.shape());
+    channels = std::max(channels, f.shape().channels);
+  }
+  for (const QuadtreeView& f : factors)
+    if (f.shape().channels != 1 && f.shape().channels != channels)
+      throw std::invalid_argument("product factors mix incompatible channel counts");
+  FactorState roots[kMaxFactors];
+  for (std::size_t f = 0; f < factors.size(); ++f)
+    roots[f] = {0, {1, 1, 1}};
+  double sum[3] = {};
+  descend_product(factors, roots, 0.25, channels, sum);
+  return channels_to_rgb(sum, channels);
+}
+
+}  // namespace basis

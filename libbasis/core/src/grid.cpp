@@ -1,0 +1,34 @@
+#include "basis/core/grid.h"
+
+#include <stdexcept>
+#include <string>
+
+namespace basis {
+
+Grid::Grid(int resolution_, int channels_, int groups_)
+    : resolution(resolution_), channels(channels_), groups(groups_) {
+  if (resolution < 1 || channels < 1 || groups < 1)
+    throw std::invalid_argument("grid: resolution, channels and groups must be positive");
+  texels.assign(plane_size() * channels * groups, 0.0f);
+}
+
+std::span<float> Grid::plane(int group, int channel) {
+  return {texels.data() + std::size_t(group * channels + channel) * plane_size(), plane_size()};
+}
+
+std::span<const float> Grid::plane(int group, int channel) const {
+  return {texels.data() + std::size_t(group * channels + channel) * plane_size(), plane_size()};
+}
+
+double Grid::mean(int group, int channel) const {
+  double sum = 0;
+  for (float t : plane(group, channel))
+    sum += t;
+  return sum / double(plane_size());
+}
+
+bool is_valid_resolution(int n) {
+  return n >= 2 && n <= 512 && (n & (n - 1)) == 0;
+}
+
+}  // namespace basis

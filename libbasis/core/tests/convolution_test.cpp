@@ -1,0 +1,251 @@
+// Convolution of quadtrees against dense references: exact for the trees, within the certified
+// bound of the full-resolution product, SIMD equal to scalar, N-ary products, analytic lobes.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "basis/core/convolution.h"
+#include "basis/core/dense.h"
+#include "basis/core/hemisphere.h"
+#include "support/test_functions.h"
+
+namespace basis {
+namespace {
+
+using testing::test_functions;
+
+// Dense integral of the product over [0,1]^2, written here independently of the library:
+// grids are upsampled by replication to the finest resolution, channels broadcast.
+double dense_product(const std::vector<const Grid*>& grids, int group_of_first, int channel) {
+  int n = 0;
+  for (const Grid* g : grids)
+    n = std::max(n, g->resolution);
+  double sum = 0;
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      double p = 1;
+      for (std::size_t k = 0; k < grids.size(); ++k) {
+        const Grid& g = *grids[k];
+        const int scale = n / g.resolution;
+        p *= g.at(k == 0 ? group_of_first : 0, g.channels == 1 ? 0 : channel, x / scale, y / scale);
+      }
+      sum += p;
+    }
+  return sum / (double(n) * n);
+}
+
+double relative_gap(double a, double b) {
+  return std::abs(a - b) / std::max({std::abs(a), std::abs(b), 1e-30});
+}
+
+struct Case {
+  int res_a, res_b, channels_a, channels_b;
+};
+
+class ConvolutionProperties : public ::testing::TestWithParam<Case> {};
+
+TEST_P(ConvolutionProperties, EqualsDenseProductOfReconstructions) {
+  const Case k = GetParam();
+  const auto fa = test_functions(k.res_a, k.channels_a, 1);
+  const auto fb = test_functions(k.res_b, k.channels_b, 2);
+  const int channels = std::max(k.channels_a, k.channels_b);
+  for (double tolerance : {0.01, 0.05, 0.3})
+    for (const auto& [name_a, grid_a] : fa)
+      for (const auto& [name_b, grid_b] : fb) {
+        const Quadtree a = project(grid_a, {.tolerance = tolerance});
+        const Quadtree b = project(grid_b, {.tolerance = tolerance});
+        const Grid ra = reconstruct(a.view()), rb = reconstruct(b.view());
+        const Convolution conv = convolve(a.view(), b.view());
+        const Rgb value = convolve_value(a.view(), b.view());
+        for (int c = 0; c < channels; ++c) {
+          const double expected = dense_product({&ra, &rb}, 0, c);
+          EXPECT_LT(relative_gap(conv.value[c], expected), 2e-6)
+              << name_a << " x " << name_b << " tol " << tolerance << " c " << c;
+          EXPECT_EQ(value[c], conv.value[c]);
+        }
+      }
+}
+
+TEST_P(ConvolutionProperties, FullResolutionProductLiesWithinCertifiedBound) {
+  const Case k = GetParam();
+  const auto fa = test_functions(k.res_a, k.channels_a, 3);
+  const auto fb = test_functions(k.res_b, k.channels_b, 4);
+  const int channels = std::max(k.channels_a, k.channels_b);
+  for (double tolerance : {0.01, 0.05, 0.3, 2.0})
+    for (const auto& [name_a, grid_a] : fa)
+      for (const auto& [name_b, grid_b] : fb) {
+        const Quadtree a = project(grid_a, {.tolerance = tolerance});
+        const Quadtree b = project(grid_b, {.tolerance = tolerance});
+        const Convolution conv = convolve(a.view(), b.view());
+        for (int c = 0; c < channels; ++c) {
+          const double exact = dense_product({&grid_a, &grid_b}, 0, c);
+          EXPECT_LE(std::abs(conv.value[c] - exact), conv.bound[c] + 2e-6 * std::abs(exact))
+              << name_a << " x " << name_b << " tol " << tolerance << " c " << c << " bound "
+              << conv.bound[c];
+        }
+      }
+}
+
+TEST_P(ConvolutionProperties, SimdAgreesWithScalar) {
+  const Case k = GetParam();
+  const auto fa = test_functions(k.res_a, k.channels_a, 5);
+  const auto fb = test_functions(k.res_b, k.channels_b, 6);
+  for (const auto& [name_a, grid_a] : fa)
+    for (const auto& [name_b, grid_b] : fb) {
+      const Quadtree a = project(grid_a, {.tolerance = 0.05});
+      const Quadtree b = project(grid_b, {.tolerance = 0.05});
+      const Convolution simd = convolve(a.view(), b.view());
+      const Convolution scalar = convolve_scalar(a.view(), b.view());
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_LT(relative_gap(simd.value[c], scalar.value[c]), 1e-6) << name_a << " x " << name_b;
+        EXPECT_LT(relative_gap(simd.bound[c], scalar.bound[c]), 1e-6) << name_a << " x " << name_b;
+      }
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(Shapes, ConvolutionProperties,
+                         ::testing::Values(Case{32, 32, 1, 1}, Case{32, 32, 3, 3},
+                                           Case{16, 16, 1, 3}, Case{64, 64, 3, 1},
+                                           Case{8, 64, 3, 3}, Case{128, 32, 1, 3}),
+                         [](const auto& info) {
+                           const Case& k = info.param;
+                           return std::to_string(k.res_a) + "x" + std::to_string(k.res_b) + "_" +
+                                  std::to_string(k.channels_a) + "ch_" +
+                                  std::to_string(k.channels_b) + "ch";
+                         });
+
+TEST(Convolution, ToleranceZeroReproducesTheDenseResult) {
+  for (int n : {2, 16, 128}) {
+    const auto fa = test_functions(n, 3, 7), fb = test_functions(n, 3, 8);
+    for (const auto& [name_a, grid_a] : fa)
+      for (const auto& [name_b, grid_b] : fb) {
+        const Quadtree a = project(grid_a, {.tolerance = 0});
+        const Quadtree b = project(grid_b, {.tolerance = 0});
+        const Convolution conv = convolve(a.view(), b.view());
+        const Rgb naive = dense_convolve_naive(grid_a, grid_b);
+        for (int c = 0; c < 3; ++c) {
+          EXPECT_LT(relative_gap(conv.value[c], naive[c]), 2e-6) << name_a << " x " << name_b;
+          EXPECT_LE(conv.bound[c], 1e-6 * std::abs(naive[c]));
+        }
+      }
+  }
+}
+
+TEST(Convolution, DenseSimdMatchesNaive) {
+  for (int n : {8, 32, 256}) {
+    const auto fa = test_functions(n, 3, 9), fb = test_functions(n, 1, 10);
+    for (std::size_t i = 0; i < fa.size(); ++i) {
+      const Rgb naive = dense_convolve_naive(fa[i].grid, fb[i].grid);
+      const Rgb simd = dense_convolve_simd(fa[i].grid, fb[i].grid);
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_LT(relative_gap(naive[c], simd[c]), 1e-5) << fa[i].name;
+        EXPECT_LT(relative_gap(naive[c], dense_product({&fa[i].grid, &fb[i].grid}, 0, c)), 1e-7);
+      }
+    }
+  }
+}
+
+TEST(Convolution, GroupsEqualSeparateDenseProducts) {
+  Grid a(32, 3, 3);
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<float> unit(-1, 2);
+  for (float& t : a.texels)
+    t = unit(rng);
+  const auto fb = test_functions(32, 3, 12);
+  for (const auto& [name, grid_b] : fb) {
+    const Quadtree ta = project(a, {.tolerance = 0.1});
+    const Quadtree tb = project(grid_b, {.tolerance = 0.1});
+    const Grid ra = reconstruct(ta.view()), rb = reconstruct(tb.view());
+    const GroupConvolution groups = convolve_groups(ta.view(), tb.view());
+    for (int g = 0; g < 3; ++g)
+      for (int c = 0; c < 3; ++c) {
+        const double expected = dense_product({&ra, &rb}, g, c);
+        EXPECT_NEAR(groups.value[g][c], expected, 2e-6 * std::abs(expected) + 1e-6) << name << g;
+      }
+    EXPECT_EQ(groups.value[0], convolve_value(ta.view(), tb.view()));
+    EXPECT_EQ(groups.bound, convolve(ta.view(), tb.view()).bound);
+  }
+}
+
+TEST(Convolution, ProductOfThreeEqualsDenseTripleProduct) {
+  const auto brdf = test_functions(32, 1, 13);
+  const auto radiance = test_functions(64, 3, 14);
+  const auto visibility = test_functions(16, 1, 15);
+  for (std::size_t i = 0; i < brdf.size(); ++i)
+    for (std::size_t j = 0; j < radiance.size(); ++j) {
+      const Quadtree a = project(brdf[i].grid, {.tolerance = 0.05});
+      const Quadtree b = project(radiance[j].grid, {.tolerance = 0.05});
+      const Quadtree v = project(visibility[(i + j) % visibility.size()].grid, {.tolerance = 0.05});
+      const Grid ra = reconstruct(a.view()), rb = reconstruct(b.view()), rv = reconstruct(v.view());
+      const QuadtreeView factors[] = {a.view(), b.view(), v.view()};
+      const Rgb product = convolve_product(factors);
+      for (int c = 0; c < 3; ++c) {
+        const double expected = dense_product({&ra, &rb, &rv}, 0, c);
+        EXPECT_LT(relative_gap(product[c], expected), 1e-6) << brdf[i].name << radiance[j].name;
+      }
+      // Two factors reduce to the ordinary convolution.
+      const QuadtreeView pair[] = {a.view(), b.view()};
+      const Rgb two = convolve_product(pair);
+      const Rgb conv = convolve_value(a.view(), b.view());
+      for (int c = 0; c < 3; ++c)
+        EXPECT_LT(relative_gap(two[c], conv[c]), 1e-6);
+    }
+}
+
+TEST(Convolution, RejectsIncompatibleChannels) {
+  Grid two(8, 3);
+  const Quadtree a = project(two);
+  Grid mono(8, 1);
+  const Quadtree b = project(mono);
+  EXPECT_NO_THROW(convolve(a.view(), b.view()));
+  EXPECT_THROW(convolve_product(std::span<const QuadtreeView>()), std::invalid_argument);
+  EXPECT_THROW(dense_convolve_naive(Grid(8, 1), Grid(16, 1)), std::invalid_argument);
+}
+
+// A normalised Phong lobe (n + 2) / (2 pi) cos^n(theta) around the normal reflects all of a
+// constant unit radiance: pi * integral over the square of f = 1. Point-sampled texels converge
+// as the resolution grows; supersampled texel averages are right at every resolution.
+TEST(PhongLobe, AlbedoConvergesWithResolution) {
+  for (int exponent : {10, 100, 1000}) {
+    const double norm = (exponent + 2) / (2 * std::numbers::pi);
+    auto lobe = [&](double u, double v) {
+      return norm * std::pow(square_to_cosine_hemisphere({u, v}).z(), exponent);
+    };
+    Grid constant(2, 1);
+    for (float& t : constant.texels)
+      t = 1;
+    const Quadtree light = project(constant);
+    double previous_error = 1e9;
+    for (int n : {32, 64, 128, 256, 512}) {
+      const Grid point =
+          testing::sample_grid(n, 1, [&](double u, double v, int) { return lobe(u, v); });
+      const double albedo =
+          std::numbers::pi * convolve(project(point).view(), light.view()).value[0];
+      const double error = std::abs(albedo - 1);
+      EXPECT_LE(error, previous_error * 1.05 + 1e-4) << exponent << " at " << n;
+      previous_error = error;
+      if (n == 512) {
+        EXPECT_LT(error, 5e-3) << exponent;
+      }
+
+      const int ss = n <= 64 ? 16 : 4;
+      Grid averaged(n, 1);
+      for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+          double sum = 0;
+          for (int j = 0; j < ss; ++j)
+            for (int i = 0; i < ss; ++i)
+              sum += lobe((x + (i + 0.5) / ss) / n, (y + (j + 0.5) / ss) / n);
+          averaged.at(0, 0, x, y) = float(sum / (ss * ss));
+        }
+      const double averaged_albedo =
+          std::numbers::pi * convolve(project(averaged).view(), light.view()).value[0];
+      EXPECT_NEAR(averaged_albedo, 1, exponent == 1000 && n == 32 ? 2e-2 : 3e-3)
+          << exponent << " at " << n;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace basis

@@ -1,0 +1,218 @@
+// Quadtree projection: reconstruction within tolerance, exact integrals, valid error bounds,
+// tolerance and depth semantics.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "basis/core/quadtree.h"
+#include "support/test_functions.h"
+
+namespace basis {
+namespace {
+
+using testing::test_functions;
+
+// Largest |texel - quadrant value| of the source grid over every quadrant of every node,
+// compared with the stored error bound; calls check(max_deviation, stored_error).
+template <typename Check>
+void for_each_quadrant_deviation(const QuadtreeView& tree, const Grid& grid, Check check) {
+  const int n = grid.resolution;
+  auto visit = [&](auto&& self, int node, int x0, int y0, int size) -> void {
+    const int half = size / 2;
+    for (int q = 0; q < 4; ++q) {
+      const int qx = x0 + (q & 1) * half, qy = y0 + (q >> 1) * half;
+      for (int c = 0; c < grid.channels; ++c) {
+        const float v = tree.value(node, 0, c, q);
+        float deviation = 0;
+        for (int y = qy; y < qy + half; ++y)
+          for (int x = qx; x < qx + half; ++x)
+            deviation = std::max(deviation, std::abs(grid.at(0, c, x, y) - v));
+        check(deviation, tree.error(node, c, q), std::abs(v));
+      }
+      if (const int child = tree.child(node, q)) self(self, child, qx, qy, half);
+    }
+  };
+  visit(visit, 0, 0, 0, n);
+}
+
+class QuadtreeProperties : public ::testing::TestWithParam<std::tuple<int, int>> {};
+
+TEST_P(QuadtreeProperties, ReconstructionWithinToleranceAndIntegralExact) {
+  const auto [n, channels] = GetParam();
+  for (const auto& [name, grid] : test_functions(n, channels, 11)) {
+    for (double tolerance : {0.0, 0.01, 0.05, 0.5}) {
+      const Quadtree tree = project(grid, {.tolerance = tolerance});
+      const Grid recon = reconstruct(tree.view());
+      for (int c = 0; c < channels; ++c) {
+        const double mean = grid.mean(0, c);
+        const double tol = tolerance * std::abs(mean);
+        for (int y = 0; y < n; ++y)
+          for (int x = 0; x < n; ++x) {
+            const float input = grid.at(0, c, x, y);
+            ASSERT_LE(std::abs(recon.at(0, c, x, y) - input), tol + 1e-6 * std::abs(input) + 1e-7)
+                << name << " tol " << tolerance << " texel " << x << "," << y;
+          }
+        EXPECT_NEAR(integrate(tree.view(), 0, c), mean, 1e-6 * std::abs(mean) + 1e-9)
+            << name << " tol " << tolerance;
+      }
+      if (tolerance == 0) {
+        EXPECT_EQ(recon.texels, grid.texels) << name;
+      }
+    }
+  }
+}
+
+TEST_P(QuadtreeProperties, StoredErrorBoundsEveryTexel) {
+  const auto [n, channels] = GetParam();
+  for (const auto bound : {ProjectionOptions::Bound::exact, ProjectionOptions::Bound::paper})
+    for (const auto& function : test_functions(n, channels, 5)) {
+      const std::string& name = function.name;
+      const Quadtree tree = project(function.grid, {.tolerance = 0.05, .bound = bound});
+      for_each_quadrant_deviation(
+          tree.view(), function.grid, [&](float deviation, float error, float v) {
+            ASSERT_LE(deviation, error + 1e-6f * (v + deviation) + 1e-7f) << name;
+            // The exact bound is the largest deviation itself.
+            if (bound == ProjectionOptions::Bound::exact) {
+              ASSERT_LE(error, deviation + 1e-6f * (v + deviation) + 1e-7f) << name;
+            }
+          });
+    }
+}
+
+TEST_P(QuadtreeProperties, ExactBoundsNeverNeedMoreNodesThanThePapers) {
+  const auto [n, channels] = GetParam();
+  for (const auto& [name, grid] : test_functions(n, channels, 6))
+    for (double tolerance : {0.01, 0.05, 0.2}) {
+      const int exact = project(grid, {.tolerance = tolerance}).node_count();
+      const int paper =
+          project(grid, {.tolerance = tolerance, .bound = ProjectionOptions::Bound::paper})
+              .node_count();
+      EXPECT_LE(exact, paper) << name << " " << tolerance;
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(Resolutions, QuadtreeProperties,
+                         ::testing::Combine(::testing::Values(2, 8, 32, 64),
+                                            ::testing::Values(1, 3)));
+
+TEST(Quadtree, ConstantFunctionIsASingleNode) {
+  for (int n : {2, 32, 512}) {
+    Grid g(n, 3);
+    for (float& t : g.texels)
+      t = 0.7f;
+    const Quadtree tree = project(g, {.tolerance = 0});
+    EXPECT_EQ(tree.node_count(), 1);
+    EXPECT_FLOAT_EQ(integrate(tree.view(), 0, 2), 0.7f);
+  }
+  Grid black(64, 1);
+  EXPECT_EQ(project(black).node_count(), 1);
+}
+
+TEST(Quadtree, AbsoluteAndRelativeToleranceAgreeWhenScaledByTheMean) {
+  const Grid g = testing::test_functions(32, 1, 3)[1].grid;  // smooth
+  const double mean = g.mean(0, 0);
+  const Quadtree relative = project(g, {.tolerance = 0.2});
+  const Quadtree absolute =
+      project(g, {.tolerance = 0.2 * mean, .mode = ProjectionOptions::Mode::absolute});
+  ASSERT_GT(relative.node_count(), 1);
+  ASSERT_LT(relative.node_count(), 341);  // neither trivial nor complete
+  EXPECT_EQ(relative.node_count(), absolute.node_count());
+  // Scaling the function scales absolute tolerances' effect but not relative ones'.
+  Grid scaled = g;
+  for (float& t : scaled.texels)
+    t *= 1000;
+  EXPECT_EQ(project(scaled, {.tolerance = 0.2}).node_count(), relative.node_count());
+  EXPECT_GT(project(scaled, {.tolerance = 0.2 * mean, .mode = ProjectionOptions::Mode::absolute})
+                .node_count(),
+            relative.node_count());
+}
+
+TEST(Quadtree, LooserToleranceNeverAddsNodes) {
+  const Grid g = testing::test_functions(64, 3, 9)[1].grid;
+  int previous = 1 << 30;
+  for (double t : {0.0, 0.001, 0.01, 0.05, 0.1, 1.0, 100.0}) {
+    const int nodes = project(g, {.tolerance = t}).node_count();
+    EXPECT_LE(nodes, previous) << t;
+    previous = nodes;
+  }
+  EXPECT_EQ(previous, 1);
+}
+
+TEST(Quadtree, MaxDepthLimitsLevels) {
+  const Grid g = testing::random_grid(64, 1, 1);
+  for (int depth = 1; depth <= 6; ++depth) {
+    const Quadtree tree = project(g, {.tolerance = 0, .max_depth = depth});
+    const auto histogram = depth_histogram(tree.view());
+    EXPECT_EQ(int(histogram.size()), depth);
+    EXPECT_EQ(histogram.back(), 1 << (2 * (depth - 1)));  // random data refines everywhere
+  }
+}
+
+TEST(Quadtree, ChildLinksPointForwardAndNodesAreReachableOnce) {
+  for (const auto& [name, grid] : test_functions(128, 3, 2)) {
+    const Quadtree tree = project(grid, {.tolerance = 0.02});
+    const QuadtreeView v = tree.view();
+    std::vector<int> parents(v.node_count(), 0);
+    for (int node = 0; node < v.node_count(); ++node)
+      for (int q = 0; q < 4; ++q)
+        if (const int child = v.child(node, q)) {
+          ASSERT_GT(child, node) << name;
+          ASSERT_LT(child, v.node_count()) << name;
+          ++parents[child];
+        }
+    EXPECT_EQ(parents[0], 0);
+    for (int node = 1; node < v.node_count(); ++node)
+      EXPECT_EQ(parents[node], 1) << name;
+  }
+}
+
+TEST(Quadtree, EvaluateMatchesReconstruction) {
+  const Grid g = testing::test_functions(32, 3, 4)[2].grid;
+  const Quadtree tree = project(g, {.tolerance = 0.05});
+  const Grid recon = reconstruct(tree.view());
+  for (int y = 0; y < 32; ++y)
+    for (int x = 0; x < 32; ++x)
+      for (int c = 0; c < 3; ++c)
+        EXPECT_EQ(evaluate(tree.view(), (x + 0.5) / 32, (y + 0.5) / 32, 0, c),
+                  recon.at(0, c, x, y));
+  EXPECT_EQ(evaluate(tree.view(), 1.0, 1.0), recon.at(0, 0, 31, 31));
+}
+
+TEST(Quadtree, ExtraGroupsRideAlongWithoutChangingTheCut) {
+  Grid g(32, 3, 3);
+  const Grid base = testing::test_functions(32, 3, 8)[1].grid;
+  std::copy(base.texels.begin(), base.texels.end(), g.texels.begin());
+  std::mt19937 rng(1);
+  std::normal_distribution<float> noise;
+  for (std::size_t i = base.texels.size(); i < g.texels.size(); ++i)
+    g.texels[i] = noise(rng);
+  const Quadtree with_groups = project(g, {.tolerance = 0.05});
+  const Quadtree alone = project(base, {.tolerance = 0.05});
+  ASSERT_EQ(with_groups.node_count(), alone.node_count());
+  // Every group's leaves hold the exact average of that group over the leaf.
+  const Grid recon = reconstruct(with_groups.view());
+  for (int group = 1; group < 3; ++group)
+    for (int c = 0; c < 3; ++c)
+      EXPECT_NEAR(integrate(with_groups.view(), group, c), g.mean(group, c), 1e-5);
+  EXPECT_EQ(recon.groups, 3);
+}
+
+TEST(Quadtree, RejectsInvalidInput) {
+  EXPECT_THROW(project(Grid(3, 1)), std::invalid_argument);
+  EXPECT_THROW(project(Grid(1024, 1)), std::invalid_argument);
+  EXPECT_THROW(project(Grid(8, 2)), std::invalid_argument);
+  Grid nan(8, 1);
+  nan.at(0, 0, 3, 3) = std::nanf("");
+  EXPECT_THROW(project(nan), std::invalid_argument);
+  Grid inf(8, 1);
+  inf.at(0, 0, 7, 0) = INFINITY;
+  EXPECT_THROW(project(inf), std::invalid_argument);
+  EXPECT_THROW(project(Grid(8, 1), {.tolerance = -1}), std::invalid_argument);
+  EXPECT_THROW(project(Grid(8, 1), {.tolerance = NAN}), std::invalid_argument);
+  EXPECT_THROW(project(Grid(8, 1), {.max_depth = 4}), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace basis

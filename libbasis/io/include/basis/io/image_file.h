@@ -1,0 +1,23 @@
+// Image files through OpenImageIO: any format it reads (EXR, HDR, PNG, ...) in, EXR or PNG out.
+// Kept in its own library (basis_image) so that the maths core links no image library.
+#pragma once
+
+#include <string>
+
+#include "basis/core/file_error.h"
+#include "basis/io/image.h"
+
+namespace basis {
+
+// Largest image accepted, in pixels (checked before allocating).
+inline constexpr long long kMaxImagePixels = 1LL << 28;
+
+// Reads the first subimage as float; throws FileError("PATH: problem") on any failure,
+// including sizes over kMaxImagePixels.
+Image read_image(const std::string& path);
+
+// Writes atomically; the format follows the extension (.exr stores floats, .png and others
+// 8-bit values clamped to [0,1]). Throws FileError.
+void write_image(const std::string& path, const Image& image);
+
+}  // namespace basis

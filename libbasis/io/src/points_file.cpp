@@ -1,0 +1,48 @@
+#include "basis/io/points_file.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "basis/core/file_error.h"
+
+namespace basis {
+
+std::vector<SurfacePoint> read_points(const std::string& path) {
+  if (std::filesystem::is_directory(path)) throw FileError(path + ": is a directory");
+  std::ifstream in(path);
+  if (!in) throw FileError(path + ": " + std::strerror(errno));
+  std::vector<SurfacePoint> points;
+  std::string line;
+  for (int number = 1; std::getline(in, line); ++number) {
+    const std::string content = line.substr(0, line.find('#'));
+    if (content.find_first_not_of(" \t\r") == std::string::npos) continue;
+    std::istringstream fields(content);
+    double v[6];
+    for (int k = 0; k < 6; ++k) {
+      char comma = ',';
+      if (!(fields >> v[k]) || (k < 5 && !(fields >> comma)) || comma != ',' ||
+          !std::isfinite(v[k]))
+        throw FileError(path + ":" + std::to_string(number) +
+                        ": expected six finite numbers x,y,z,nx,ny,nz");
+    }
+    if (!(fields >> std::ws).eof())
+      throw FileError(path + ":" + std::to_string(number) + ": more than six values");
+    const Vec3 n(v[3], v[4], v[5]);
+    if (!(n.norm() > 1e-12))
+      throw FileError(path + ":" + std::to_string(number) + ": the normal is zero");
+    if (points.size() >= kMaxSurfacePoints)
+      throw FileError(path + ":" + std::to_string(number) + ": more than " +
+                      std::to_string(kMaxSurfacePoints) + " points");
+    points.push_back({Vec3(v[0], v[1], v[2]), n.normalized()});
+  }
+  if (points.empty()) throw FileError(path + ": no points");
+  return points;
+}
+
+}  // namespace basis

@@ -1,0 +1,80 @@
+// Hemisphere captures (DESIGN section 6): incident radiance L(w) V(x, w) at a point, as texel
+// averages over the cosine-weighted concentric map of the point's frame, ready for projection.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "basis/core/frame.h"
+#include "basis/core/grid.h"
+#include "basis/core/quadtree.h"
+#include "basis/core/task.h"
+#include "basis/io/points_file.h"
+#include "basis/lighting/capture_set.h"
+#include "basis/lighting/environment.h"
+#include "basis/lighting/ray_scene.h"
+
+namespace basis {
+
+struct CaptureOptions {
+  int resolution = 128;       // N, texels per side (power of two, 2..512)
+  int strata = 2;             // rays per texel = strata^2, jittered within a strata x strata grid
+  int bright_subsamples = 4;  // pieces per axis of each bright environment pixel
+  std::uint64_t seed = 1;     // jitter; results depend on it and the point index only
+  double ray_offset = 1e-4;   // origins move this far along the normal (scaled by the scene)
+};
+
+// Counts of what a capture did, for reports and benchmarks.
+struct CaptureStats {
+  long long rays = 0;
+  long long escaped = 0;
+};
+
+// The capture at `position` with local frame `frame`: for every stratum, a ray through its
+// jittered point; an escaping ray contributes the environment's smooth part averaged over the
+// stratum's footprint, a hit its surface's emission. Each bright environment pixel is split
+// into bright_subsamples^2 pieces whose energy goes exactly into the texel each falls in, if a
+// shadow ray towards the pixel's centre escapes. With `lights`, the pieces of the
+// environment's compact lights go there instead, one DirectionalLight per light seen (energy
+// of its visible pieces above the horizon, direction their energy-weighted mean). With no
+// scene nothing occludes. `index` decorrelates jitter between points. Deterministic.
+Grid capture(const Environment& environment, const RayScene* scene, const Vec3& position,
+             const Frame& frame, const CaptureOptions& options, std::uint64_t index = 0,
+             CaptureStats* stats = nullptr, std::vector<DirectionalLight>* lights = nullptr);
+
+// Adds each light's energy to the texel its direction falls in (as a light's pieces would be
+// splatted without `lights`): the grid of texel averages such a capture stands for.
+void splat_lights(std::span<const DirectionalLight> lights, Grid& grid);
+
+struct CaptureSetOptions {
+  CaptureOptions capture;
+  // Keep the environment's compact lights apart as directions (capture's `lights`) instead of
+  // splatting them into texels.
+  bool separate_lights = true;
+  ProjectionOptions projection;
+  // Called with each capture's texel grid before projection and the lights kept apart (from
+  // worker threads), e.g. to write it out; may be empty.
+  std::function<void(std::size_t index, const Grid& grid, std::span<const DirectionalLight> lights)>
+      on_grid;
+  // Capturing stops with std::length_error once the trees pass this size (a .qt file holds at
+  // most 2 GiB), before memory runs out.
+  std::size_t max_bytes = std::size_t(2000) << 20;
+};
+
+// Time spent, summed over threads: tracing and filtering (capture) and building trees.
+struct CaptureTimings {
+  double capture_seconds = 0;
+  double projection_seconds = 0;
+  CaptureStats stats;
+};
+
+// Captures every point in parallel and projects each capture into a tree. Deterministic for a
+// seed whatever the thread count; reports progress per point and stops (Cancelled) when asked.
+CaptureSet capture_set(const Environment& environment, const RayScene* scene,
+                       std::span<const SurfacePoint> points, const CaptureSetOptions& options,
+                       const TaskControl& control = {}, CaptureTimings* timings = nullptr);
+
+}  // namespace basis

@@ -1,0 +1,60 @@
+// Capture sets: hemisphere captures of incident radiance at surface points, one quadtree per
+// point over the cosine-weighted concentric map of the point's local frame.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "basis/core/color.h"
+#include "basis/core/frame.h"
+#include "basis/core/tree_set.h"
+#include "basis/core/vector.h"
+
+namespace basis {
+
+// A light much smaller than a capture's texels (a sun), kept apart from the capture's tree:
+// its unit direction in the capture's local frame (z > 0) and its energy, the integral of its
+// radiance over the solid angle it covers, per channel. It adds f(direction, wo) energy
+// direction.z to the radiance reflected towards wo.
+struct DirectionalLight {
+  Vec3 direction;
+  Color energy;
+};
+
+// Capture k: position, unit normal and unit tangent (bitangent = normal x tangent) in world
+// coordinates, tree k of `trees`, and lights [light_offsets[k], light_offsets[k + 1]) of
+// `lights` (light_offsets is empty when no capture keeps lights apart).
+struct CaptureSetView {
+  std::span<const Vec3> positions;
+  std::span<const Vec3> normals;
+  std::span<const Vec3> tangents;
+  TreeSetView trees;
+  std::span<const DirectionalLight> lights;
+  std::span<const std::uint32_t> light_offsets;
+
+  std::size_t size() const { return positions.size(); }
+  // The local frame of capture k: tangent, bitangent = normal x tangent, normal.
+  Frame frame(std::size_t k) const {
+    return {tangents[k], normals[k].cross(tangents[k]), normals[k]};
+  }
+  std::span<const DirectionalLight> lights_of(std::size_t k) const {
+    if (light_offsets.empty()) return {};
+    return lights.subspan(light_offsets[k], light_offsets[k + 1] - light_offsets[k]);
+  }
+};
+
+struct CaptureSet {
+  std::vector<Vec3> positions;
+  std::vector<Vec3> normals;
+  std::vector<Vec3> tangents;
+  TreeSet trees;
+  std::vector<DirectionalLight> lights;
+  std::vector<std::uint32_t> light_offsets;
+
+  CaptureSetView view() const {
+    return {positions, normals, tangents, trees.view(), lights, light_offsets};
+  }
+};
+
+}  // namespace basis

@@ -1,0 +1,29 @@
+// Ray tracing with Embree: a triangle mesh as a RayScene for captures (occlusion, and the
+// emission of emitters hit).
+#pragma once
+
+#include <memory>
+
+#include "basis/lighting/mesh.h"
+#include "basis/lighting/ray_scene.h"
+
+namespace basis {
+
+class EmbreeScene : public RayScene {
+ public:
+  // Builds the acceleration structure. Throws std::runtime_error if Embree fails.
+  explicit EmbreeScene(const TriangleMesh& mesh);
+  ~EmbreeScene() override;
+  EmbreeScene(const EmbreeScene&) = delete;
+  EmbreeScene& operator=(const EmbreeScene&) = delete;
+
+  // Rays start at their origin (tnear 0) and run to infinity. Thread-safe. Sets flush-to-zero
+  // and denormals-are-zero on the calling thread, as Embree expects.
+  void trace(std::span<const Ray> rays, std::span<RayHit> hits) const override;
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace basis

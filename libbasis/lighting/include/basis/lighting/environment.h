@@ -1,0 +1,91 @@
+// Distant lighting from a latitude-longitude radiance map (z up, the convention of latlong.h):
+// point lookups, the bright pixels that captures integrate exactly instead of sampling them,
+// and the compact lights (a sun) among them that captures can keep apart as directions.
+#pragma once
+
+#include <span>
+#include <vector>
+
+#include "basis/core/color.h"
+#include "basis/core/vector.h"
+#include "basis/io/image.h"
+
+namespace basis {
+
+// Texels an environment map had to repair: NaN, +-Inf and negative values are set to 0 and
+// never reach a capture.
+struct EnvironmentRepairs {
+  long long nan = 0;
+  long long infinite = 0;
+  long long negative = 0;
+  long long total() const { return nan + infinite + negative; }
+};
+
+class Environment {
+ public:
+  // From a lat-long image (1 channel: grey; 3 or more: RGB, extra channels ignored), rotated by
+  // `rotate_z_degrees` about z (a feature at azimuth phi moves to phi + rotation). Pixels whose
+  // luminance exceeds 8 times the map's mean (at most 0.5 % of them) are bright: their excess
+  // over that level is kept apart and splatted exactly by captures.
+  explicit Environment(const Image& latlong, double rotate_z_degrees = 0);
+  // A constant environment.
+  static Environment constant(const Color& radiance);
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+  const EnvironmentRepairs& repairs() const { return repairs_; }
+
+  // Radiance of the pixel seen in world direction w (bright part included).
+  Color radiance(const Vec3& w) const;
+  // Radiance of the smooth part (bright excess removed) of the pixel seen in direction w.
+  Color smooth_radiance(const Vec3& w) const;
+  // Angular height of a pixel row (pi / height), 0 for a constant environment: the scale at
+  // which captures sample the map.
+  double pixel_angle() const;
+
+  struct BrightPixel {
+    int row, column;
+    Color excess;    // radiance above the smooth part's level
+    int light = -1;  // the compact light it belongs to, -1 for none
+  };
+  std::span<const BrightPixel> bright_pixels() const { return bright_; }
+
+  // A compact light: a connected group of bright pixels at least kLightContrast times the
+  // smooth level, all (to their extent) within kMaxLightRadiusDegrees of their energy-weighted
+  // centre. Much
+  // smaller than a capture's texels near the horizon, it is kept apart as a direction.
+  static constexpr double kLightContrast = 4;
+  static constexpr double kMaxLightRadiusDegrees = 3;
+  struct CompactLight {
+    Vec3 direction;  // world, unit: the centre of its excess energy
+    double radius;   // radians: largest angle from the centre to a pixel's centre, plus half
+                     // a pixel's diagonal at the equator
+    Color energy;    // integral of the excess radiance over its pixels' solid angle
+  };
+  std::span<const CompactLight> lights() const { return lights_; }
+  // World direction of map position (column x, row y) in pixels, rotation applied.
+  Vec3 direction(double x, double y) const;
+  // Solid angle of the map band between rows y0 and y1 (fractional) and columns spanning dx.
+  double band_solid_angle(double y0, double y1, double dx) const;
+
+  // Integral over the sphere of L(w) max(0, w . n) dw, directly over the map's pixels: the
+  // irradiance on a surface of normal n, for references.
+  Color irradiance(const Vec3& n, int subsamples = 4) const;
+
+ private:
+  Environment() = default;
+  Color pixel(int row, int column) const;
+  void find_compact_lights(double level, std::span<const double> pixel_luminance);
+
+  int width_ = 0, height_ = 0;
+  double rotation_ = 0;                  // radians
+  std::vector<float> pixels_;            // RGB rows, bright excess included
+  std::vector<float> smooth_;            // RGB rows, bright excess removed
+  std::vector<double> row_solid_angle_;  // per pixel of each row
+  std::vector<BrightPixel> bright_;
+  std::vector<CompactLight> lights_;
+  EnvironmentRepairs repairs_;
+  bool constant_ = false;
+};
+
+}  // namespace basis

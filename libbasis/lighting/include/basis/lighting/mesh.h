@@ -1,0 +1,48 @@
+// Triangle scenes for captures: meshes read from OBJ files (tinyobjloader), emission per
+// triangle from their materials, and points sampled on their surfaces.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "basis/core/color.h"
+#include "basis/core/file_error.h"
+#include "basis/core/vector.h"
+#include "basis/io/points_file.h"
+#include "basis/lighting/ray_scene.h"
+
+namespace basis {
+
+struct TriangleMesh {
+  std::vector<std::array<float, 3>> vertices;
+  std::vector<std::array<std::uint32_t, 3>> triangles;
+  std::vector<Color> emission;  // per triangle: the material's Ke, black when none
+
+  // Problems repaired while reading: degenerate (zero-area) triangles dropped.
+  long long dropped_degenerate = 0;
+
+  bool has_emitters() const;
+  // Length of the bounding box's diagonal (0 for an empty mesh).
+  double extent() const;
+  // Area and unit normal (counter-clockwise winding faces the normal) of triangle t.
+  double area(std::size_t t) const;
+  Vec3 normal(std::size_t t) const;
+};
+
+// Largest mesh accepted (checked while reading) and largest OBJ file (checked before).
+inline constexpr std::size_t kMaxTriangles = std::size_t(1) << 28;
+inline constexpr std::uintmax_t kMaxObjBytes = std::uintmax_t(4) << 30;
+
+// Reads an OBJ file (and its MTL materials) with tinyobjloader; polygons are triangulated.
+// Throws FileError for unreadable files, NaN or infinite vertices, indices out of range, or a
+// mesh with no triangles. Degenerate triangles are dropped and counted.
+TriangleMesh read_obj(const std::string& path);
+
+// `count` points uniformly distributed over the mesh's area, each with its triangle's normal
+// (the side its counter-clockwise winding faces). Deterministic for a seed.
+std::vector<SurfacePoint> sample_surface(const TriangleMesh& mesh, std::size_t count,
+                                         std::uint64_t seed);
+
+}  // namespace basis

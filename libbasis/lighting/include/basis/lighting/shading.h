@@ -1,0 +1,46 @@
+// Shading capture points with a BRDF table (DESIGN sections 1 and 5): reflected radiance at
+// every capture of a set for an outgoing direction, optionally for a tilted surface normal.
+#pragma once
+
+#include <optional>
+
+#include "basis/brdf/brdf_table.h"
+#include "basis/core/frame.h"
+#include "basis/lighting/capture_set.h"
+
+namespace basis {
+
+struct ShadingOptions {
+  // Outgoing direction in the shading frame (the capture's frame unless `normal` is given);
+  // must have wo.z >= 0.
+  Vec3 wo{0, 0, 1};
+  // Shade as if the surface normal were this unit vector (world coordinates) instead of the
+  // capture's: the shading frame is the capture's frame rotated by the smallest rotation taking
+  // its normal to this one, and the tilt is compensated as `tilt_mode` says.
+  std::optional<Vec3> normal;
+  TiltCompensation tilt_mode = TiltCompensation::compensated;
+  // f for the captures' directional lights: this BRDF (the one the table tabulates) at the
+  // light's exact direction when given, else the table's entries at the texel it falls in.
+  const Brdf* light_brdf = nullptr;
+};
+
+// The tilt of a surface of normal `normal` (world) against capture k's frame.
+Tilt capture_tilt(const CaptureSetView& captures, std::size_t k, const Vec3& normal);
+
+// Reflected radiance (pi included) at capture k, with the certified bound of the lookup: the
+// table convolved with the capture's tree, plus f(wi, wo) E wi.z for each of its directional
+// lights. With --normal the lights turn with the surface exactly (no compensation needed;
+// lights below the tilted horizon drop out), except in TiltCompensation::none. A light's bound
+// is 0 with light_brdf, else the entries' leaf error bounds at its texel.
+Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, std::size_t k,
+                  const ShadingOptions& options);
+
+// The integral of L_a L_b cos over the hemisphere (pi times the product's integral over the
+// cosine-weighted map) at capture k of two sets of one resolution, each capture's directional
+// lights standing in the texel they fall in (as splat_lights would put them); the bound adds,
+// for each light, its weight times the other tree's leaf error bound there. A set of one
+// capture stands for every point. Throws std::invalid_argument when sets with lights differ in
+// resolution.
+Convolution capture_product(const CaptureSetView& a, const CaptureSetView& b, std::size_t k);
+
+}  // namespace basis

@@ -1,0 +1,125 @@
+#include "basis/lighting/embree_scene.h"
+
+#include <embree3/rtcore.h>
+#include <pmmintrin.h>
+#include <xmmintrin.h>
+
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace basis {
+
+struct EmbreeScene::State {
+  RTCDevice device = nullptr;
+  RTCScene scene = nullptr;
+  std::vector<Color> emission;
+  bool emitters = false;
+};
+
+namespace {
+
+void throw_device_error(RTCDevice device, const char* what) {
+  throw std::runtime_error(std::string("Embree: ") + what + " (error " +
+                           std::to_string(int(rtcGetDeviceError(device))) + ")");
+}
+
+}  // namespace
+
+EmbreeScene::EmbreeScene(const TriangleMesh& mesh) : state_(std::make_unique<State>()) {
+  state_->device = rtcNewDevice("verbose=0");
+  if (!state_->device) throw std::runtime_error("Embree: cannot create a device");
+  state_->scene = rtcNewScene(state_->device);
+  rtcSetSceneBuildQuality(state_->scene, RTC_BUILD_QUALITY_HIGH);
+  RTCGeometry geometry = rtcNewGeometry(state_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0,
+                                                               RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                                               mesh.vertices.size()));
+  auto* indices = static_cast<unsigned*>(
+      rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                              3 * sizeof(unsigned), mesh.triangles.size()));
+  if (!vertices || !indices) throw_device_error(state_->device, "cannot allocate the mesh");
+  for (std::size_t i = 0; i < mesh.vertices.size(); ++i)
+    for (int k = 0; k < 3; ++k)
+      vertices[3 * i + k] = mesh.vertices[i][k];
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
+    for (int k = 0; k < 3; ++k)
+      indices[3 * t + k] = mesh.triangles[t][k];
+  rtcCommitGeometry(geometry);
+  rtcAttachGeometry(state_->scene, geometry);
+  rtcReleaseGeometry(geometry);
+  rtcCommitScene(state_->scene);
+  if (rtcGetDeviceError(state_->device) != RTC_ERROR_NONE)
+    throw_device_error(state_->device, "cannot build the scene");
+  state_->emission = mesh.emission;
+  state_->emitters = mesh.has_emitters();
+}
+
+EmbreeScene::~EmbreeScene() {
+  if (state_->scene) rtcReleaseScene(state_->scene);
+  if (state_->device) rtcReleaseDevice(state_->device);
+}
+
+void EmbreeScene::trace(std::span<const Ray> rays, std::span<RayHit> hits) const {
+  _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
+  _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  constexpr std::size_t kBatch = 256;
+  if (!state_->emitters) {  // occlusion only
+    RTCRay batch[kBatch];
+    for (std::size_t start = 0; start < rays.size(); start += kBatch) {
+      const std::size_t count = std::min(kBatch, rays.size() - start);
+      for (std::size_t i = 0; i < count; ++i) {
+        const Ray& r = rays[start + i];
+        RTCRay& q = batch[i];
+        q.org_x = float(r.origin.x());
+        q.org_y = float(r.origin.y());
+        q.org_z = float(r.origin.z());
+        q.dir_x = float(r.direction.x());
+        q.dir_y = float(r.direction.y());
+        q.dir_z = float(r.direction.z());
+        q.tnear = 0;
+        q.tfar = std::numeric_limits<float>::infinity();
+        q.time = 0;
+        q.mask = ~0u;
+        q.id = unsigned(i);
+        q.flags = 0;
+      }
+      rtcOccluded1M(state_->scene, &context, batch, unsigned(count), sizeof(RTCRay));
+      for (std::size_t i = 0; i < count; ++i)
+        hits[start + i] = {batch[i].tfar < 0, {0, 0, 0}};
+    }
+    return;
+  }
+  std::vector<RTCRayHit> batch(kBatch);
+  for (std::size_t start = 0; start < rays.size(); start += kBatch) {
+    const std::size_t count = std::min(kBatch, rays.size() - start);
+    for (std::size_t i = 0; i < count; ++i) {
+      const Ray& r = rays[start + i];
+      RTCRayHit& q = batch[i];
+      q.ray.org_x = float(r.origin.x());
+      q.ray.org_y = float(r.origin.y());
+      q.ray.org_z = float(r.origin.z());
+      q.ray.dir_x = float(r.direction.x());
+      q.ray.dir_y = float(r.direction.y());
+      q.ray.dir_z = float(r.direction.z());
+      q.ray.tnear = 0;
+      q.ray.tfar = std::numeric_limits<float>::infinity();
+      q.ray.time = 0;
+      q.ray.mask = ~0u;
+      q.ray.id = unsigned(i);
+      q.ray.flags = 0;
+      q.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+      q.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    }
+    rtcIntersect1M(state_->scene, &context, batch.data(), unsigned(count), sizeof(RTCRayHit));
+    for (std::size_t i = 0; i < count; ++i) {
+      const bool hit = batch[i].hit.geomID != RTC_INVALID_GEOMETRY_ID;
+      hits[start + i] = {hit, hit ? state_->emission[batch[i].hit.primID] : Color{0, 0, 0}};
+    }
+  }
+}
+
+}  // namespace basis

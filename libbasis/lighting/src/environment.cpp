@@ -1,0 +1,203 @@
+#include "basis/lighting/environment.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+#include "basis/core/latlong.h"
+
+namespace basis {
+
+Environment::Environment(const Image& latlong, double rotate_z_degrees)
+    : width_(latlong.width),
+      height_(latlong.height),
+      rotation_(rotate_z_degrees * std::numbers::pi / 180) {
+  if (width_ < 2 || height_ < 1) throw std::invalid_argument("environment map has no pixels");
+  if (!std::isfinite(rotation_)) throw std::invalid_argument("environment rotation is not finite");
+  pixels_.resize(std::size_t(width_) * height_ * 3);
+  for (int y = 0; y < height_; ++y)
+    for (int x = 0; x < width_; ++x)
+      for (int c = 0; c < 3; ++c) {
+        float v = latlong.at(x, y, latlong.channels >= 3 ? c : 0);
+        if (std::isnan(v)) {
+          ++repairs_.nan;
+          v = 0;
+        } else if (std::isinf(v)) {
+          ++repairs_.infinite;
+          v = 0;
+        } else if (v < 0) {
+          ++repairs_.negative;
+          v = 0;
+        }
+        pixels_[(std::size_t(y) * width_ + x) * 3 + c] = v;
+      }
+  row_solid_angle_.resize(height_);
+  for (int y = 0; y < height_; ++y)
+    row_solid_angle_[y] = latlong_pixel_solid_angle(y, width_, height_);
+
+  // Bright level: 8 x the mean luminance, raised so that at most 0.5 % of pixels exceed it.
+  double mean = 0;
+  std::vector<double> lum(std::size_t(width_) * height_);
+  for (int y = 0; y < height_; ++y)
+    for (int x = 0; x < width_; ++x) {
+      lum[std::size_t(y) * width_ + x] = luminance(pixel(y, x));
+      mean += lum[std::size_t(y) * width_ + x] * row_solid_angle_[y];
+    }
+  mean /= 4 * std::numbers::pi;
+  double level = 8 * mean;
+  std::vector<double> sorted = lum;
+  const std::size_t keep = std::max<std::size_t>(1, sorted.size() / 200);
+  std::nth_element(sorted.begin(), sorted.end() - keep, sorted.end());
+  level = std::max(level, *(sorted.end() - keep));
+  smooth_ = pixels_;
+  for (int y = 0; y < height_; ++y)
+    for (int x = 0; x < width_; ++x) {
+      const double l = lum[std::size_t(y) * width_ + x];
+      if (!(l > level) || level <= 0) continue;
+      float* s = &smooth_[(std::size_t(y) * width_ + x) * 3];
+      const float* p = &pixels_[(std::size_t(y) * width_ + x) * 3];
+      BrightPixel b{y, x, {}};
+      for (int c = 0; c < 3; ++c) {
+        s[c] = float(p[c] * level / l);
+        b.excess[c] = double(p[c]) - s[c];
+      }
+      bright_.push_back(b);
+    }
+  find_compact_lights(level, lum);
+}
+
+void Environment::find_compact_lights(double level, std::span<const double> pixel_luminance) {
+  // Candidates: bright pixels far above the smooth level, in row-major order (as bright_ is).
+  std::vector<std::size_t> candidates;  // indices into bright_
+  std::vector<std::size_t> keys;        // their pixel indices, ascending
+  for (std::size_t i = 0; i < bright_.size(); ++i) {
+    const std::size_t key = std::size_t(bright_[i].row) * width_ + bright_[i].column;
+    if (pixel_luminance[key] >= kLightContrast * level) {
+      candidates.push_back(i);
+      keys.push_back(key);
+    }
+  }
+  // Connected groups (8-neighbours, columns wrap around) by union-find.
+  std::vector<std::size_t> parent(candidates.size());
+  for (std::size_t i = 0; i < parent.size(); ++i)
+    parent[i] = i;
+  auto root = [&](std::size_t i) {
+    while (parent[i] != i)
+      i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  for (std::size_t i = 0; i < candidates.size(); ++i) {
+    const BrightPixel& b = bright_[candidates[i]];
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int row = b.row + dy, column = (b.column + dx + width_) % width_;
+        if (row < 0 || row >= height_) continue;
+        const std::size_t key = std::size_t(row) * width_ + column;
+        const auto it = std::lower_bound(keys.begin(), keys.end(), key);
+        if (it != keys.end() && *it == key) parent[root(i)] = root(std::size_t(it - keys.begin()));
+      }
+  }
+  // Each group's energy and centre; groups within the radius limit become lights.
+  std::vector<std::vector<std::size_t>> groups(candidates.size());
+  for (std::size_t i = 0; i < candidates.size(); ++i)
+    groups[root(i)].push_back(candidates[i]);
+  const double max_radius = kMaxLightRadiusDegrees * std::numbers::pi / 180;
+  for (const std::vector<std::size_t>& group : groups) {
+    if (group.empty()) continue;
+    CompactLight light{Vec3::Zero(), 0, {0, 0, 0}};
+    for (const std::size_t i : group) {
+      const BrightPixel& b = bright_[i];
+      const double omega = row_solid_angle_[b.row];
+      for (int c = 0; c < 3; ++c)
+        light.energy[c] += b.excess[c] * omega;
+      light.direction += luminance(b.excess) * omega * direction(b.column + 0.5, b.row + 0.5);
+    }
+    if (!(light.direction.norm() > 0)) continue;
+    light.direction.normalize();
+    light.radius = std::sqrt(0.5) * std::numbers::pi / height_;  // half a pixel's diagonal
+    for (const std::size_t i : group) {
+      const Vec3 d = direction(bright_[i].column + 0.5, bright_[i].row + 0.5);
+      light.radius = std::max(light.radius, std::sqrt(0.5) * std::numbers::pi / height_ +
+                                                angle_between(light.direction, d));
+    }
+    if (light.radius > max_radius) continue;
+    for (const std::size_t i : group)
+      bright_[i].light = int(lights_.size());
+    lights_.push_back(light);
+  }
+}
+
+Environment Environment::constant(const Color& radiance) {
+  Environment e;
+  e.constant_ = true;
+  e.width_ = e.height_ = 1;
+  e.pixels_ = {float(radiance[0]), float(radiance[1]), float(radiance[2])};
+  e.smooth_ = e.pixels_;
+  return e;
+}
+
+Vec3 Environment::direction(double x, double y) const {
+  const Vec3 d = latlong_to_direction({x, y}, width_, height_);
+  const double c = std::cos(rotation_), s = std::sin(rotation_);
+  return {c * d.x() - s * d.y(), s * d.x() + c * d.y(), d.z()};
+}
+
+double Environment::band_solid_angle(double y0, double y1, double dx) const {
+  return 2 * std::numbers::pi * dx / width_ *
+         (std::cos(std::numbers::pi * y0 / height_) - std::cos(std::numbers::pi * y1 / height_));
+}
+
+Color Environment::pixel(int row, int column) const {
+  const float* p = &pixels_[(std::size_t(row) * width_ + column) * 3];
+  return {p[0], p[1], p[2]};
+}
+
+Color Environment::radiance(const Vec3& w) const {
+  if (constant_) return pixel(0, 0);
+  const double c = std::cos(rotation_), s = std::sin(rotation_);
+  const Vec3 map(c * w.x() + s * w.y(), -s * w.x() + c * w.y(), w.z());
+  const Vec2 p = direction_to_latlong(map, width_, height_);
+  return pixel(std::clamp(int(p.y()), 0, height_ - 1), std::clamp(int(p.x()), 0, width_ - 1));
+}
+
+Color Environment::smooth_radiance(const Vec3& w) const {
+  if (constant_) return pixel(0, 0);
+  const double c = std::cos(rotation_), s = std::sin(rotation_);
+  const Vec3 map(c * w.x() + s * w.y(), -s * w.x() + c * w.y(), w.z());
+  const Vec2 p = direction_to_latlong(map, width_, height_);
+  const float* q = &smooth_[(std::size_t(std::clamp(int(p.y()), 0, height_ - 1)) * width_ +
+                             std::clamp(int(p.x()), 0, width_ - 1)) *
+                            3];
+  return {q[0], q[1], q[2]};
+}
+
+double Environment::pixel_angle() const {
+  return constant_ ? 0.0 : std::numbers::pi / height_;
+}
+
+Color Environment::irradiance(const Vec3& n, int subsamples) const {
+  if (constant_) {
+    const Color l = pixel(0, 0);
+    return {l[0] * std::numbers::pi, l[1] * std::numbers::pi, l[2] * std::numbers::pi};
+  }
+  Color sum{0, 0, 0};
+  const double inv = 1.0 / subsamples;
+  for (int y = 0; y < height_; ++y)
+    for (int sy = 0; sy < subsamples; ++sy) {
+      const double y0 = y + sy * inv, y1 = y0 + inv;
+      const double dw = band_solid_angle(y0, y1, inv);
+      for (int x = 0; x < width_; ++x) {
+        const Color l = pixel(y, x);
+        for (int sx = 0; sx < subsamples; ++sx) {
+          const double cosine = direction(x + (sx + 0.5) * inv, (y0 + y1) / 2).dot(n);
+          if (cosine <= 0) continue;
+          for (int c = 0; c < 3; ++c)
+            sum[c] += l[c] * cosine * dw;
+        }
+      }
+    }
+  return sum;
+}
+
+}  // namespace basis

@@ -1,0 +1,183 @@
+#include "basis/lighting/mesh.h"
+
+#include <tiny_obj_loader.h>
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace basis {
+
+namespace {
+
+Vec3 vertex(const TriangleMesh& m, std::uint32_t i) {
+  return {m.vertices[i][0], m.vertices[i][1], m.vertices[i][2]};
+}
+
+std::uint64_t mix(std::uint64_t x) {
+  x += 0x9e3779b97f4a7c15ull;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+  return x ^ (x >> 31);
+}
+
+double unit(std::uint64_t x) {
+  return double(mix(x) >> 11) * 0x1.0p-53;
+}
+
+std::string first_line(const std::string& text) {
+  std::string line = text.substr(0, text.find('\n'));
+  while (!line.empty() && (line.back() == '\r' || line.back() == ' '))
+    line.pop_back();
+  return line;
+}
+
+// tinyobjloader reads a coordinate it cannot parse ("nan", "abc") as 0 without a word, so the
+// numbers of vertex lines are checked here before it reads the file.
+void check_vertex_numbers(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  long long vertex = 0;
+  for (int number = 1; std::getline(in, line); ++number) {
+    if (line.size() < 2 || line[0] != 'v' || (line[1] != ' ' && line[1] != '\t')) continue;
+    ++vertex;
+    std::istringstream tokens(line.substr(2));
+    std::string token;
+    for (int k = 0; tokens >> token; ++k) {
+      double value = 0;
+      const auto [end, error] = std::from_chars(token.data(), token.data() + token.size(), value);
+      if (error != std::errc() || end != token.data() + token.size())
+        throw FileError(path + ":" + std::to_string(number) + ": vertex " + std::to_string(vertex) +
+                        ": '" + token + "' is not a number");
+      if (!std::isfinite(value))
+        throw FileError(path + ":" + std::to_string(number) + ": vertex " + std::to_string(vertex) +
+                        " is NaN or infinite");
+    }
+  }
+}
+
+}  // namespace
+
+bool TriangleMesh::has_emitters() const {
+  return std::any_of(emission.begin(), emission.end(),
+                     [](const Color& c) { return c[0] > 0 || c[1] > 0 || c[2] > 0; });
+}
+
+double TriangleMesh::extent() const {
+  if (vertices.empty()) return 0;
+  Vec3 lo = Vec3::Constant(INFINITY), hi = Vec3::Constant(-INFINITY);
+  for (const auto& v : vertices)
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], double(v[k]));
+      hi[k] = std::max(hi[k], double(v[k]));
+    }
+  return (hi - lo).norm();
+}
+
+double TriangleMesh::area(std::size_t t) const {
+  const auto& f = triangles[t];
+  return 0.5 * (vertex(*this, f[1]) - vertex(*this, f[0]))
+                   .cross(vertex(*this, f[2]) - vertex(*this, f[0]))
+                   .norm();
+}
+
+Vec3 TriangleMesh::normal(std::size_t t) const {
+  const auto& f = triangles[t];
+  return (vertex(*this, f[1]) - vertex(*this, f[0]))
+      .cross(vertex(*this, f[2]) - vertex(*this, f[0]))
+      .normalized();
+}
+
+TriangleMesh read_obj(const std::string& path) {
+  if (std::filesystem::is_directory(path))
+    throw FileError(path + ": is a directory, not an OBJ file");
+  if (!std::filesystem::exists(path)) throw FileError(path + ": No such file or directory");
+  if (std::filesystem::file_size(path) > kMaxObjBytes)
+    throw FileError(path + ": larger than " + std::to_string(kMaxObjBytes >> 30) +
+                    " GiB, the limit of an OBJ scene");
+  check_vertex_numbers(path);
+  tinyobj::ObjReaderConfig config;
+  config.triangulate = true;
+  config.vertex_color = false;
+  tinyobj::ObjReader reader;
+  if (!reader.ParseFromFile(path, config))
+    throw FileError(
+        path + ": " +
+        (reader.Error().empty() ? std::string("cannot read OBJ") : first_line(reader.Error())));
+  const tinyobj::attrib_t& attrib = reader.GetAttrib();
+  TriangleMesh mesh;
+  const std::size_t vertex_count = attrib.vertices.size() / 3;
+  mesh.vertices.resize(vertex_count);
+  for (std::size_t i = 0; i < vertex_count; ++i)
+    for (int k = 0; k < 3; ++k) {
+      const float v = attrib.vertices[3 * i + k];
+      if (!std::isfinite(v))
+        throw FileError(path + ": vertex " + std::to_string(i + 1) + " is NaN or infinite");
+      mesh.vertices[i][k] = v;
+    }
+  const auto& materials = reader.GetMaterials();
+  for (const tinyobj::shape_t& shape : reader.GetShapes()) {
+    const auto& indices = shape.mesh.indices;
+    for (std::size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f) {
+      if (shape.mesh.num_face_vertices[f] != 3)
+        throw FileError(path + ": face of " + std::to_string(shape.mesh.num_face_vertices[f]) +
+                        " vertices left after triangulation");
+      std::array<std::uint32_t, 3> t{};
+      for (int k = 0; k < 3; ++k) {
+        const int index = indices[3 * f + k].vertex_index;
+        if (index < 0 || std::size_t(index) >= vertex_count)
+          throw FileError(path + ": shape '" + shape.name + "' face " + std::to_string(f + 1) +
+                          " uses vertex " + std::to_string(index + 1) + " of " +
+                          std::to_string(vertex_count));
+        t[k] = std::uint32_t(index);
+      }
+      if (mesh.triangles.size() >= kMaxTriangles)
+        throw FileError(path + ": more than " + std::to_string(kMaxTriangles) + " triangles");
+      mesh.triangles.push_back(t);
+      Color emission{0, 0, 0};
+      const int material = f < shape.mesh.material_ids.size() ? shape.mesh.material_ids[f] : -1;
+      if (material >= 0 && std::size_t(material) < materials.size())
+        for (int c = 0; c < 3; ++c)
+          emission[c] = std::max(0.0f, materials[material].emission[c]);
+      mesh.emission.push_back(emission);
+      if (!(mesh.area(mesh.triangles.size() - 1) > 0)) {  // degenerate: drop it
+        mesh.triangles.pop_back();
+        mesh.emission.pop_back();
+        ++mesh.dropped_degenerate;
+      }
+    }
+  }
+  if (mesh.triangles.empty()) throw FileError(path + ": no triangles");
+  return mesh;
+}
+
+std::vector<SurfacePoint> sample_surface(const TriangleMesh& mesh, std::size_t count,
+                                         std::uint64_t seed) {
+  std::vector<double> cdf(mesh.triangles.size());
+  double total = 0;
+  for (std::size_t t = 0; t < cdf.size(); ++t)
+    cdf[t] = total += mesh.area(t);
+  std::vector<SurfacePoint> points(count);
+  const std::uint64_t stream = mix(seed);
+  for (std::size_t i = 0; i < count; ++i) {
+    const double pick = unit(stream + 3 * i) * total;
+    const std::size_t t = std::min(
+        cdf.size() - 1, std::size_t(std::upper_bound(cdf.begin(), cdf.end(), pick) - cdf.begin()));
+    // Uniform barycentrics by folding the unit square.
+    double a = unit(stream + 3 * i + 1), b = unit(stream + 3 * i + 2);
+    if (a + b > 1) {
+      a = 1 - a;
+      b = 1 - b;
+    }
+    const auto& f = mesh.triangles[t];
+    points[i].position =
+        vertex(mesh, f[0]) * (1 - a - b) + vertex(mesh, f[1]) * a + vertex(mesh, f[2]) * b;
+    points[i].normal = mesh.normal(t);
+  }
+  return points;
+}
+
+}  // namespace basis

@@ -1,0 +1,121 @@
+#include "basis/lighting/shading.h"
+
+#include <algorithm>
+#include <numbers>
+#include <optional>
+#include <stdexcept>
+#include <vector>
+
+#include "basis/core/hemisphere.h"
+
+namespace basis {
+
+Tilt capture_tilt(const CaptureSetView& captures, std::size_t k, const Vec3& normal) {
+  const Vec3 local = captures.frame(k).to_local(normal.normalized());
+  if (local.z() <= -1 + 1e-12)
+    throw std::invalid_argument("the shading normal is opposite the capture's normal");
+  return tilt_to(local);
+}
+
+Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, std::size_t k,
+                  const ShadingOptions& options) {
+  if (!(options.wo.z() >= 0)) throw std::invalid_argument("outgoing direction below the horizon");
+  const QuadtreeView radiance = captures.trees.tree(k);
+  const Vec3 wo = options.wo.normalized();
+  Convolution result;
+  std::optional<Frame> record, shading;
+  if (!options.normal) {
+    result = reflect(table, radiance, wo);
+  } else {
+    const Tilt tilt = capture_tilt(captures, k, *options.normal);
+    result = reflect_tilted(table, radiance, wo, tilt, options.tilt_mode);
+    if (options.tilt_mode != TiltCompensation::none) {
+      record = captures.frame(k);
+      shading = tilted_frame(*record, tilt);
+    }
+  }
+  const auto lights = captures.lights_of(k);
+  if (lights.empty()) return result;
+  // The entries around wo, read only when the lights take f from the table.
+  const auto taps =
+      options.light_brdf ? std::array<TableTap, 4>{} : table_taps(table.wo_resolution, wo);
+  const int table_channels = table.trees.shape().channels;
+  for (const DirectionalLight& light : lights) {
+    Vec3 wi = light.direction;
+    if (shading) wi = shading->to_local(record->to_world(wi));
+    if (!(wi.z() > 0)) continue;
+    Color f{0, 0, 0}, error{0, 0, 0};
+    if (options.light_brdf) {
+      f = evaluate(*options.light_brdf, wi, wo);
+    } else {
+      const Vec2 uv = cosine_hemisphere_to_square(wi);
+      for (const TableTap& tap : taps) {
+        const QuadtreeView entry = table.entry(tap.i, tap.j);
+        const LeafQuadrant leaf = find_leaf(entry, uv.x(), uv.y());
+        for (int c = 0; c < 3; ++c) {
+          const int channel = std::min(c, table_channels - 1);
+          f[c] += tap.weight * entry.value(leaf.node, 0, channel, leaf.quadrant);
+          error[c] += tap.weight * entry.error(leaf.node, channel, leaf.quadrant);
+        }
+      }
+    }
+    for (int c = 0; c < 3; ++c) {
+      result.value[c] += float(f[c] * light.energy[c] * wi.z());
+      result.bound[c] += float(error[c] * light.energy[c] * wi.z());
+    }
+  }
+  return result;
+}
+
+Convolution capture_product(const CaptureSetView& a, const CaptureSetView& b, std::size_t k) {
+  // A set of one capture stands for every point.
+  const std::size_t ka = a.trees.size() == 1 ? 0 : k, kb = b.trees.size() == 1 ? 0 : k;
+  const QuadtreeView ta = a.trees.tree(ka), tb = b.trees.tree(kb);
+  Convolution result = convolve(ta, tb);
+  for (int c = 0; c < 3; ++c) {
+    result.value[c] *= float(std::numbers::pi);
+    result.bound[c] *= float(std::numbers::pi);
+  }
+  const auto la = a.lights_of(ka), lb = b.lights_of(kb);
+  if (la.empty() && lb.empty()) return result;
+  const int n = ta.shape().resolution;
+  if (tb.shape().resolution != n)
+    throw std::invalid_argument("captures with directional lights multiply at one resolution");
+  // A light stands for energy * cos / (pi * texel area) over the texel it falls in.
+  struct Splat {
+    int x, y;
+    Color weight;  // energy * cos
+  };
+  auto splats = [&](std::span<const DirectionalLight> lights) {
+    std::vector<Splat> out;
+    for (const DirectionalLight& l : lights) {
+      const auto [x, y] = cosine_hemisphere_texel(l.direction, n);
+      out.push_back({x,
+                     y,
+                     {l.energy[0] * l.direction.z(), l.energy[1] * l.direction.z(),
+                      l.energy[2] * l.direction.z()}});
+    }
+    return out;
+  };
+  const std::vector<Splat> sa = splats(la), sb = splats(lb);
+  auto against_tree = [&](const std::vector<Splat>& lights, const QuadtreeView& tree) {
+    for (const Splat& s : lights) {
+      const LeafQuadrant leaf = find_leaf(tree, (s.x + 0.5) / n, (s.y + 0.5) / n);
+      for (int c = 0; c < 3; ++c) {
+        const int channel = std::min(c, tree.shape().channels - 1);
+        result.value[c] += float(s.weight[c] * tree.value(leaf.node, 0, channel, leaf.quadrant));
+        result.bound[c] += float(s.weight[c] * tree.error(leaf.node, channel, leaf.quadrant));
+      }
+    }
+  };
+  against_tree(sa, tb);
+  against_tree(sb, ta);
+  for (const Splat& p : sa)
+    for (const Splat& q : sb)
+      if (p.x == q.x && p.y == q.y)
+        for (int c = 0; c < 3; ++c)
+          result.value[c] += float(p.weight[c] * q.weight[c] * double(n) * n / std::numbers::pi);
+  return result;
+}
+
+}  // namespace basis

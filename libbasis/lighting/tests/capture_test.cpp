@@ -1,0 +1,350 @@
+// Captures against independent ground truth: constant light, direct integration of maps over
+// their pixels, a wall hiding half the hemisphere, and a one-pixel sun.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "basis/brdf/brdf_table.h"
+#include "basis/core/hemisphere.h"
+#include "basis/lighting/capture.h"
+#include "basis/lighting/embree_scene.h"
+#include "basis/lighting/shading.h"
+#include "support/environments.h"
+
+namespace basis {
+namespace {
+
+std::vector<Vec3> normals() {
+  return {Vec3(0, 0, 1), Vec3(1, 0, 0), Vec3(0.3, -0.4, 0.866).normalized(),
+          Vec3(-0.5, 0.7, -0.5).normalized(), Vec3(0, 0, -1)};
+}
+
+// Reflected radiance of a white Lambert surface (albedo 1) under the capture: the irradiance
+// over pi, through a real BRDF table and its four-entry lookup.
+Rgb white_lambert(const Grid& capture_grid) {
+  static const BrdfTable table = [] {
+    BrdfTableOptions o;
+    o.wo_resolution = 3;
+    o.wi_resolution = 2;
+    o.tilt_derivatives = false;
+    return tabulate_brdf(Lambert{{1, 1, 1}}, o);
+  }();
+  const Quadtree tree = project(capture_grid, {.tolerance = 0.05});
+  return reflect(table.view(), tree.view(), Vec3::UnitZ()).value;
+}
+
+TEST(Capture, ConstantLightGivesTheConstantThroughAWhiteLambertTable) {
+  const Environment env = Environment::constant({0.7, 1.3, 2.0});
+  for (int res : {8, 16, 32, 64, 128})
+    for (const Vec3& n : normals()) {
+      const Rgb lo = white_lambert(
+          capture(env, nullptr, Vec3(1, 2, 3), Frame::from_normal(n), {.resolution = res}));
+      EXPECT_NEAR(lo[0], 0.7, 0.005 * 0.7) << res;
+      EXPECT_NEAR(lo[1], 1.3, 0.005 * 1.3) << res;
+      EXPECT_NEAR(lo[2], 2.0, 0.005 * 2.0) << res;
+    }
+  // A constant lat-long image too (summed-area filtering keeps constants exact).
+  Image flat(64, 32, 3);
+  for (float& p : flat.pixels)
+    p = 0.5f;
+  const Rgb lo = white_lambert(capture(Environment(flat), nullptr, Vec3::Zero(),
+                                       Frame::from_normal(normals()[2]), {.resolution = 32}));
+  EXPECT_NEAR(lo[1], 0.5, 0.0025);
+}
+
+void check_against_map(const std::string& name, const Environment& env) {
+  double worst = 0;
+  for (const Vec3& n : normals()) {
+    const Color e = env.irradiance(n);  // direct integration over the map's pixels
+    const Rgb lo = white_lambert(
+        capture(env, nullptr, Vec3::Zero(), Frame::from_normal(n), {.resolution = 64}));
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_NEAR(lo[c], e[c] / std::numbers::pi, 0.01 * e[c] / std::numbers::pi)
+          << name << " normal " << n.transpose() << " channel " << c;
+      worst =
+          std::max(worst, std::abs(lo[c] - e[c] / std::numbers::pi) / (e[c] / std::numbers::pi));
+    }
+  }
+  std::printf("[  LAMBERT ] %s: largest relative error %.4f\n", name.c_str(), worst);
+}
+
+TEST(Capture, LambertMatchesDirectIntegrationOfASyntheticMap) {
+  check_against_map("synthetic sky", Environment(testing::synthetic_sky()));
+  check_against_map("rotated synthetic sky", Environment(testing::synthetic_sky(), 77));
+}
+
+TEST(Capture, LambertMatchesDirectIntegrationOfRealProbes) {
+  for (const std::string name : {"grace", "uffizi", "pisa", "ennis", "wells"})
+    if (const auto probe = testing::real_probe(name)) check_against_map(name, Environment(*probe));
+}
+
+// A wall in the plane x = -0.001, far larger than its distance, hides the directions with
+// x < 0: half of the cosine-weighted hemisphere of a point at the origin facing +z.
+TEST(Capture, AWallHidingHalfTheHemisphereHalvesTheLight) {
+  TriangleMesh wall;
+  const float d = -0.001f, big = 1e4f;
+  wall.vertices = {{d, -big, -big}, {d, big, -big}, {d, big, big}, {d, -big, big}};
+  wall.triangles = {{0, 1, 2}, {0, 2, 3}};
+  wall.emission = {{0, 0, 0}, {0, 0, 0}};
+  const EmbreeScene scene(wall);
+  const Environment env = Environment::constant({1, 1, 1});
+  for (int res : {16, 64})
+    for (int spp : {1, 2}) {
+      const Rgb lo =
+          white_lambert(capture(env, &scene, Vec3::Zero(), Frame::from_normal(Vec3::UnitZ()),
+                                {.resolution = res, .strata = spp}));
+      EXPECT_NEAR(lo[0], 0.5, 0.005) << res;
+    }
+  // Facing the wall's side at 45 degrees: the wall covers the directions with x < 0.
+  const Vec3 n = Vec3(1, 0, 1).normalized();
+  const Rgb lo =
+      white_lambert(capture(env, &scene, Vec3::Zero(), Frame::from_normal(n), {.resolution = 64}));
+  // Cosine-weighted fraction of the hemisphere of n with x >= 0: (1 + sin 45) / 2.
+  EXPECT_NEAR(lo[0], (1 + std::sqrt(0.5)) / 2, 0.01);
+}
+
+TEST(Capture, EmittersShineTheirEmission) {
+  TriangleMesh lamp;  // a large emitting ceiling over the point
+  lamp.vertices = {{-1e3f, -1e3f, 1}, {1e3f, -1e3f, 1}, {1e3f, 1e3f, 1}, {-1e3f, 1e3f, 1}};
+  lamp.triangles = {{0, 1, 2}, {0, 2, 3}};
+  lamp.emission = {{4, 2, 1}, {4, 2, 1}};
+  const EmbreeScene scene(lamp);
+  const Rgb lo = white_lambert(capture(Environment::constant({1, 1, 1}), &scene, Vec3::Zero(),
+                                       Frame::from_normal(Vec3::UnitZ()), {.resolution = 32}));
+  EXPECT_NEAR(lo[0], 4, 0.04);
+  EXPECT_NEAR(lo[2], 1, 0.01);
+}
+
+// One pixel of radiance 1e5 in a black map: all its energy lands in the capture, at any
+// resolution, however small the pixel is against the texels.
+TEST(Capture, ASunSmallerThanATexelKeepsItsEnergy) {
+  Image dark(256, 128, 3);
+  const int row = 40, column = 57;
+  for (int c = 0; c < 3; ++c)
+    dark.at(column, row, c) = 1e5f;
+  const Environment env(dark);
+  const Vec3 n = Vec3(0.2, 0.1, 1).normalized();
+  const Color expected = env.irradiance(n);  // 1e5 x solid angle x cosine, by the map's pixels
+  ASSERT_GT(expected[0], 0);
+  for (int res : {8, 16, 32, 64}) {
+    const Grid g = capture(env, nullptr, Vec3::Zero(), Frame::from_normal(n), {.resolution = res});
+    const double energy = std::numbers::pi * g.mean(0, 0);  // integral of L cos over the texels
+    EXPECT_NEAR(energy, expected[0], 0.02 * expected[0]) << res;
+    // The sun stays where it is: a texel or its neighbours hold 99.9 % of the energy.
+    const double total = g.mean(0, 0) * res * res;
+    int lit = 0;
+    for (float t : g.plane(0, 0))
+      lit += t > 1e-3 * total;
+    EXPECT_LE(lit, 4) << res;
+  }
+}
+
+// A map with two one-pixel suns and a bright patch 6 x 6 pixels (8 degrees) wide over a grey
+// background: the suns are compact lights, the patch is not.
+Image two_suns_and_a_patch() {
+  Image image(256, 128, 3);
+  for (float& p : image.pixels)
+    p = 1;
+  for (int c = 0; c < 3; ++c) {
+    image.at(57, 40, c) = 1e5f;
+    image.at(150, 30, c) = 5e4f * (c + 1);
+    for (int y = 50; y < 56; ++y)
+      for (int x = 200; x < 206; ++x)
+        image.at(x, y, c) = 1000;
+  }
+  return image;
+}
+
+TEST(Capture, CompactLightsAreFoundWithTheirEnergyAndDirection) {
+  const Image image = two_suns_and_a_patch();
+  const Environment env(image);
+  ASSERT_EQ(env.lights().size(), 2u);
+  // The map's own geometry: a pixel's solid angle 2 pi / W (cos theta0 - cos theta1).
+  auto pixel_solid_angle = [](int row) {
+    return 2 * std::numbers::pi / 256 *
+           (std::cos(std::numbers::pi * row / 128) - std::cos(std::numbers::pi * (row + 1) / 128));
+  };
+  for (const auto& light : env.lights()) {
+    const bool first = light.direction.isApprox(env.direction(57.5, 40.5), 1e-9);
+    const int row = first ? 40 : 30;
+    EXPECT_TRUE(first || light.direction.isApprox(env.direction(150.5, 30.5), 1e-9));
+    for (int c = 0; c < 3; ++c) {
+      const double excess = image.at(first ? 57 : 150, row, c) - 1;
+      // The excess over the smooth level, which is well under 1 % of a sun.
+      EXPECT_NEAR(light.energy[c], excess * pixel_solid_angle(row),
+                  0.01 * excess * pixel_solid_angle(row));
+      EXPECT_LT(light.energy[c], excess * pixel_solid_angle(row));
+    }
+    EXPECT_NEAR(light.radius, std::sqrt(0.5) * std::numbers::pi / 128, 1e-9);  // half a pixel
+  }
+  for (const auto& b : env.bright_pixels())
+    EXPECT_EQ(b.light >= 0, (b.column == 57 && b.row == 40) || (b.column == 150 && b.row == 30))
+        << b.column << " " << b.row;
+}
+
+TEST(Capture, LightsKeptApartCarryWhatTheTexelsWouldHold) {
+  const Environment env(two_suns_and_a_patch());
+  for (const Vec3& n : {Vec3(0.2, 0.1, 1).normalized(), Vec3(0.3, 0.9, 0.4).normalized()}) {
+    const Frame frame = Frame::from_normal(n);
+    const Color expected = env.irradiance(n);  // integral of L cos over the map's pixels
+    for (int res : {16, 64}) {
+      std::vector<DirectionalLight> lights;
+      const Grid apart =
+          capture(env, nullptr, Vec3::Zero(), frame, {.resolution = res}, 0, nullptr, &lights);
+      const Grid splatted = capture(env, nullptr, Vec3::Zero(), frame, {.resolution = res});
+      std::size_t seen = 0;
+      for (const auto& light : env.lights())
+        seen += frame.to_local(light.direction).z() > 0 ? 1 : 0;
+      ASSERT_EQ(lights.size(), seen) << res;
+      for (const DirectionalLight& l : lights) {
+        const Vec3& w = l.direction;
+        EXPECT_NEAR(w.norm(), 1, 1e-12);
+        const bool matched = std::any_of(env.lights().begin(), env.lights().end(), [&](auto& e) {
+          return std::acos(std::min(1.0, frame.to_local(e.direction).dot(w))) < 0.5 * 0.0246;
+        });
+        EXPECT_TRUE(matched) << "a light's direction is off by more than half a pixel";
+      }
+      // Texels plus lights hold what the splatted capture holds, and both the map's energy.
+      Grid sum = apart;
+      splat_lights(lights, sum);
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_NEAR(sum.mean(0, c), splatted.mean(0, c), 2e-3 * splatted.mean(0, c)) << res;
+        EXPECT_NEAR(std::numbers::pi * sum.mean(0, c), expected[c], 0.01 * expected[c]) << res;
+      }
+      // Where: the same rays made both captures, so the splatted one minus the one with lights
+      // apart is the lights' pieces, which lie in the texel of the light's direction or its
+      // neighbours (a light's pixel may straddle a border) and nowhere else.
+      std::vector<double> near(std::size_t(res) * res, 0);
+      for (const DirectionalLight& l : lights) {
+        const Vec2 uv = cosine_hemisphere_to_square(l.direction);
+        const int tx = int(uv.x() * res), ty = int(uv.y() * res);
+        double pieces = 0;
+        for (int y = std::max(0, ty - 1); y <= std::min(res - 1, ty + 1); ++y)
+          for (int x = std::max(0, tx - 1); x <= std::min(res - 1, tx + 1); ++x) {
+            pieces += splatted.at(0, 1, x, y) - apart.at(0, 1, x, y);
+            near[std::size_t(y) * res + x] = 1;
+          }
+        // Texel energy to light energy: times texel area and pi, over the cosine.
+        EXPECT_NEAR(pieces * std::numbers::pi / (res * res) / l.direction.z(), l.energy[1],
+                    0.01 * l.energy[1])
+            << res;
+      }
+      for (int y = 0; y < res; ++y)
+        for (int x = 0; x < res; ++x)
+          if (!near[std::size_t(y) * res + x]) {
+            EXPECT_NEAR(splatted.at(0, 1, x, y), apart.at(0, 1, x, y),
+                        1e-5 * std::abs(apart.at(0, 1, x, y)))
+                << res << " texel " << x << "," << y;
+          }
+    }
+  }
+}
+
+// Products of captures whose lights are kept apart against the product of their full texel
+// grids with the lights splatted in (both captured here), within the certified bound.
+TEST(Capture, ProductsWithLightsStayWithinTheirBoundOfTheTexels) {
+  const Environment env(two_suns_and_a_patch());
+  const std::vector<SurfacePoint> points = {{Vec3::Zero(), Vec3(0.2, 0.1, 1).normalized()},
+                                            {Vec3::Zero(), Vec3(0.3, 0.9, 0.4).normalized()}};
+  std::vector<Grid> apart_grids(points.size()), splat_grids(points.size());
+  CaptureSetOptions options;
+  options.capture.resolution = 16;
+  options.projection.tolerance = 0.2;  // coarse trees: the bound has work to do
+  options.on_grid = [&](std::size_t k, const Grid& grid, std::span<const DirectionalLight> l) {
+    apart_grids[k] = grid;
+    splat_lights(l, apart_grids[k]);
+  };
+  const CaptureSet apart = capture_set(env, nullptr, points, options);
+  options.separate_lights = false;
+  options.on_grid = [&](std::size_t k, const Grid& grid, std::span<const DirectionalLight>) {
+    splat_grids[k] = grid;
+  };
+  const CaptureSet splat = capture_set(env, nullptr, points, options);
+  ASSERT_GT(apart.lights.size(), 0u);
+  ASSERT_TRUE(splat.lights.empty());
+  // pi times the mean of the texel products: the hemisphere integral of L_a L_b cos.
+  auto dense = [](const Grid& a, const Grid& b, int c) {
+    double sum = 0;
+    for (int y = 0; y < a.resolution; ++y)
+      for (int x = 0; x < a.resolution; ++x)
+        sum += double(a.at(0, c, x, y)) * b.at(0, c, x, y);
+    return std::numbers::pi * sum / (double(a.resolution) * a.resolution);
+  };
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    const Convolution self = capture_product(apart.view(), apart.view(), k);
+    const Convolution mixed = capture_product(apart.view(), splat.view(), k);
+    for (int c = 0; c < 3; ++c) {
+      const double exact_self = dense(apart_grids[k], apart_grids[k], c);
+      const double exact_mixed = dense(apart_grids[k], splat_grids[k], c);
+      EXPECT_LE(std::abs(self.value[c] - exact_self), self.bound[c] * 1.0001 + 1e-6 * exact_self)
+          << k << " " << c;
+      EXPECT_LE(std::abs(mixed.value[c] - exact_mixed),
+                mixed.bound[c] * 1.0001 + 1e-6 * exact_mixed)
+          << k << " " << c;
+      EXPECT_LT(self.bound[c], 0.5 * exact_self) << "a bound too loose to mean anything";
+    }
+  }
+}
+
+TEST(Capture, AnOccludedSunIsNoLight) {
+  Image dark(256, 128, 3);
+  for (int c = 0; c < 3; ++c)
+    dark.at(57, 40, c) = 1e5f;
+  const Environment env(dark);
+  ASSERT_EQ(env.lights().size(), 1u);
+  const Vec3 sun = env.lights()[0].direction;
+  // A wall across the sun's side of the point, or across the other side.
+  for (const double side : {1.0, -1.0}) {
+    const Vec3 a = sun.unitOrthogonal(), b = sun.cross(a);
+    const Vec3 centre = side * 0.5 * sun;
+    TriangleMesh wall;
+    auto corner = [&](double s, double t) {
+      const Vec3 p = centre + 10 * (s * a + t * b);
+      return std::array<float, 3>{float(p.x()), float(p.y()), float(p.z())};
+    };
+    wall.vertices = {corner(-1, -1), corner(1, -1), corner(1, 1), corner(-1, 1)};
+    wall.triangles = {{0, 1, 2}, {0, 2, 3}};
+    wall.emission = {{0, 0, 0}, {0, 0, 0}};
+    const EmbreeScene scene(wall);
+    std::vector<DirectionalLight> lights;
+    capture(env, &scene, Vec3::Zero(), Frame::from_normal(sun), {.resolution = 16}, 0, nullptr,
+            &lights);
+    EXPECT_EQ(lights.size(), side > 0 ? 0u : 1u) << side;
+  }
+}
+
+TEST(Capture, IsDeterministicAndJitterDependsOnTheSeed) {
+  const Environment env(testing::synthetic_sky());
+  TriangleMesh wall;
+  wall.vertices = {{0.3f, -5, -5}, {0.3f, 5, -5}, {0.3f, 5, 5}};
+  wall.triangles = {{0, 1, 2}};
+  wall.emission = {{0, 0, 0}};
+  const EmbreeScene scene(wall);
+  const Frame f = Frame::from_normal(Vec3::UnitZ());
+  const Grid a = capture(env, &scene, Vec3::Zero(), f, {.resolution = 32, .seed = 3}, 7);
+  const Grid b = capture(env, &scene, Vec3::Zero(), f, {.resolution = 32, .seed = 3}, 7);
+  const Grid c = capture(env, &scene, Vec3::Zero(), f, {.resolution = 32, .seed = 4}, 7);
+  EXPECT_EQ(a.texels, b.texels);
+  EXPECT_NE(a.texels, c.texels);
+}
+
+TEST(Capture, EnvironmentRepairsNonFiniteAndNegativeTexels) {
+  Image bad = testing::synthetic_sky();
+  bad.at(3, 3, 0) = std::nanf("");
+  bad.at(4, 3, 1) = INFINITY;
+  bad.at(5, 3, 2) = -INFINITY;
+  bad.at(6, 3, 0) = -2;
+  const Environment env(bad);
+  EXPECT_EQ(env.repairs().nan, 1);
+  EXPECT_EQ(env.repairs().infinite, 2);
+  EXPECT_EQ(env.repairs().negative, 1);
+  const Grid g =
+      capture(env, nullptr, Vec3::Zero(), Frame::from_normal(Vec3::UnitZ()), {.resolution = 16});
+  for (float t : g.texels)
+    ASSERT_TRUE(std::isfinite(t) && t >= 0);
+}
+
+}  // namespace
+}  // namespace basis

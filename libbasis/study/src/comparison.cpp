@@ -1,0 +1,162 @@
+#include "basis/study/comparison.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+
+#include "basis/core/convolution.h"
+#include "basis/core/dense.h"
+#include "basis/core/quadtree.h"
+#include "basis/study/haar.h"
+#include "basis/study/sh.h"
+
+namespace basis {
+
+namespace {
+
+double relative_error(const Color& value, const Color& truth) {
+  const double t = luminance({truth[0], truth[1], truth[2]});
+  return std::abs(luminance(value) - t) / t;
+}
+
+Color times_pi(const Rgb& v) {
+  return {std::numbers::pi * v[0], std::numbers::pi * v[1], std::numbers::pi * v[2]};
+}
+
+// Keeps a value observable so that timing loops are not optimised away.
+void keep(double v) {
+  static_cast<void>(v);
+  asm volatile("" : : "g"(&v) : "memory");
+}
+
+std::string format(const char* pattern, double a, double b = 0) {
+  char text[64];
+  std::snprintf(text, sizeof text, pattern, a, b);
+  return text;
+}
+
+}  // namespace
+
+double median_time_ns(const std::function<void()>& kernel, double seconds) {
+  // Calls per clock reading: one for slow kernels, more for fast ones (the clock costs ~20 ns).
+  auto now = [] { return std::chrono::steady_clock::now(); };
+  const auto probe = now();
+  kernel();
+  const double first = std::chrono::duration<double>(now() - probe).count();
+  const int batch = first > 1e-6 ? 1 : 64;
+  std::vector<double> runs;
+  for (int run = 0; run < 5; ++run) {
+    long long calls = 0;
+    const auto start = now();
+    double elapsed = 0;
+    do {
+      for (int k = 0; k < batch; ++k)
+        kernel();
+      calls += batch;
+      elapsed = std::chrono::duration<double>(now() - start).count();
+    } while (elapsed < seconds);
+    runs.push_back(elapsed * 1e9 / double(calls));
+  }
+  std::nth_element(runs.begin(), runs.begin() + 2, runs.end());
+  return runs[2];
+}
+
+Grid downsample(const Grid& grid, int resolution) {
+  const int n = grid.resolution;
+  if (resolution > n || n % resolution != 0) throw std::invalid_argument("cannot downsample");
+  if (resolution == n) return grid;
+  const int f = n / resolution;
+  Grid out(resolution, grid.channels, grid.groups);
+  for (int g = 0; g < grid.groups; ++g)
+    for (int c = 0; c < grid.channels; ++c)
+      for (int y = 0; y < resolution; ++y)
+        for (int x = 0; x < resolution; ++x) {
+          double sum = 0;
+          for (int j = 0; j < f; ++j)
+            for (int i = 0; i < f; ++i)
+              sum += grid.at(g, c, x * f + i, y * f + j);
+          out.at(g, c, x, y) = float(sum / (f * f));
+        }
+  return out;
+}
+
+std::vector<ComparisonRow> compare_methods(const ComparisonCase& c, const ComparisonOptions& o) {
+  std::vector<ComparisonRow> rows;
+  const double t = o.seconds_per_timing;
+  auto row = [&](std::string method, std::string param) {
+    ComparisonRow r;
+    r.method = std::move(method);
+    r.param = std::move(param);
+    r.brdf = c.brdf;
+    r.light = c.light;
+    return r;
+  };
+  const int finest = c.light_grid.resolution;
+
+  // Quadtrees at several resolutions and tolerances.
+  for (int n : o.quadtree_resolutions) {
+    if (n > finest) continue;
+    const Grid brdf = downsample(c.brdf_grid, n), light = downsample(c.light_grid, n);
+    for (double tolerance : o.quadtree_tolerances) {
+      const ProjectionOptions p{.tolerance = tolerance};
+      const Quadtree a = project(brdf, p), b = project(light, p);
+      ComparisonRow r = row("quadtree", format("%g@%g", n, tolerance));
+      r.bytes = double((b.nodes.size() + b.errors.size()) * sizeof(Quad));
+      QuadtreeProjector projector;
+      Quadtree scratch;
+      r.project_ns = median_time_ns([&] { projector.project(light, p, scratch); }, t);
+      r.convolve_ns = median_time_ns([&] { keep(convolve_value(a.view(), b.view())[0]); }, t);
+      r.rel_error = relative_error(times_pi(convolve_value(a.view(), b.view())), c.truth);
+      rows.push_back(r);
+    }
+  }
+  // Dense grids: the box-filtered texels, a plain loop and a vectorised dot product.
+  for (int n : o.dense_resolutions) {
+    if (n > finest) continue;
+    const Grid brdf = downsample(c.brdf_grid, n), light = downsample(c.light_grid, n);
+    const double error = relative_error(times_pi(dense_convolve_naive(brdf, light)), c.truth);
+    const double project = median_time_ns([&] { keep(downsample(c.light_grid, n).texels[0]); }, t);
+    for (const std::string method : {"dense_naive", "dense_simd"}) {
+      ComparisonRow r = row(method, format("%g", n));
+      r.bytes = double(light.texels.size() * sizeof(float));
+      r.project_ns = project;
+      r.convolve_ns = method == "dense_naive"
+                          ? median_time_ns([&] { keep(dense_convolve_naive(brdf, light)[0]); }, t)
+                          : median_time_ns([&] { keep(dense_convolve_simd(brdf, light)[0]); }, t);
+      r.rel_error = error;
+      rows.push_back(r);
+    }
+  }
+  // Spherical harmonics: the BRDF times the cosine as a transfer, the light as radiance.
+  for (int order : o.sh_orders) {
+    const std::vector<double> transfer = sh_project(c.brdf_grid, order, true);
+    const std::vector<double> radiance = sh_project(c.light_grid, order, false);
+    ComparisonRow r = row("sh", format("%g", order));
+    r.bytes = double(radiance.size() * sizeof(float));
+    r.project_ns = median_time_ns([&] { keep(sh_project(c.light_grid, order, false)[0]); }, t);
+    r.convolve_ns = median_time_ns(
+        [&] { keep(sh_dot(transfer, c.brdf_grid.channels, radiance, 3, order)[0]); }, t);
+    r.rel_error =
+        relative_error(sh_dot(transfer, c.brdf_grid.channels, radiance, 3, order), c.truth);
+    rows.push_back(r);
+  }
+  // Haar wavelets, non-linear approximation at the finest texels.
+  for (std::size_t kept : o.haar_kept) {
+    const HaarApproximation a = haar_project(c.brdf_grid, kept);
+    const HaarApproximation b = haar_project(c.light_grid, kept);
+    ComparisonRow r = row("haar", format("%g", double(kept)));
+    r.bytes = double(b.bytes());
+    r.project_ns =
+        median_time_ns([&] { keep(double(haar_project(c.light_grid, kept).bytes())); }, t);
+    r.convolve_ns = median_time_ns([&] { keep(haar_dot(a, b)[0]); }, t);
+    const auto v = haar_dot(a, b);
+    r.rel_error = relative_error(
+        {std::numbers::pi * v[0], std::numbers::pi * v[1], std::numbers::pi * v[2]}, c.truth);
+    rows.push_back(r);
+  }
+  return rows;
+}
+
+}  // namespace basis

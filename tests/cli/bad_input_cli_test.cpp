@@ -1,0 +1,191 @@
+// The bad-input matrix over every tool: missing, empty, directory, truncated, foreign and
+// future-version inputs; absurd sizes and tolerances; outputs that cannot be written. Each
+// gives one to three lines on stderr naming the input and the problem, exit status 1 for bad
+// data and 2 for bad usage, and leaves no output or temporary file behind.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+
+#include "basis/format/qt_file.h"
+#include "basis/io/image.h"
+#include "basis/io/image_file.h"
+#include "basis_generated.h"
+#include "support/run_tool.h"
+#include "support/temp_dir.h"
+
+namespace basis {
+namespace {
+
+using testing::run_tool;
+using testing::TempDir;
+
+struct Expectation {
+  std::vector<std::string> args;
+  int status;
+  std::string mentions;  // text stderr must contain (the input's name)
+};
+
+void write_text(const std::string& path, const std::string& text) {
+  std::ofstream(path) << text;
+}
+
+// Valid inputs every case starts from, and broken variants of each kind of file.
+void write_inputs(const TempDir& dir) {
+  write_text(dir.file("ok.json"), R"({"model": "lambert", "albedo": 0.5})");
+  ASSERT_EQ(
+      run_tool("brdf2qt", {"ok.json", "--wo-res", "3", "--wi-res", "8", "-q"}, dir.path()).status,
+      0);
+  ASSERT_EQ(
+      run_tool("capture2qt",
+               {"--env-constant", "1,1,1", "--at", "0,0,0", "--res", "8", "-o", "cap.qt", "-q"},
+               dir.path())
+          .status,
+      0);
+  const std::string table = testing::slurp(dir.file("ok.qt"));
+  write_text(dir.file("truncated.qt"), table.substr(0, table.size() / 3));
+  write_text(dir.file("empty.qt"), "");
+  write_text(dir.file("empty.json"), "");
+  write_text(dir.file("foreign.qt"), "\x89PNG\r\n\x1a\n....");
+  write_text(dir.file("truncated.json"), R"({"model": "phong", "ks": 0.4)");
+  write_text(dir.file("foreign.json"), "\x89PNG\r\n\x1a\n....");
+  write_text(dir.file("nan.json"), R"({"model": "phong", "ks": NaN, "exponent": 3})");
+  write_text(dir.file("negative.json"), R"({"model": "phong", "ks": -1, "exponent": 3})");
+  write_text(dir.file("missing_field.json"), R"({"model": "ggx", "f0": 0.04})");
+  write_text(dir.file("unknown.json"), R"({"model": "cook-torrance", "ks": 1})");
+  write_text(dir.file("truncated.exr"), "v/1\x01\x02");
+  write_text(dir.file("foreign.exr"), "this is not an image\n");
+  write_text(dir.file("empty.obj"), "");
+  write_text(dir.file("truncated.obj"), "v 0 0 0\nv 1 0 0\nv 0 1");
+  write_text(dir.file("foreign.obj"), "\x89PNG\r\n\x1a\n....");
+  write_text(dir.file("empty.csv"), "");
+  write_text(dir.file("foreign.csv"), "\x89PNG\r\n\x1a\n....");
+  // Environment maps with one NaN, one infinite and one negative texel.
+  for (const auto& [name, value] : {std::pair<std::string, float>{"nan.exr", std::nanf("")},
+                                    {"inf.exr", INFINITY},
+                                    {"negative.exr", -1.0f}}) {
+    Image env(16, 16, 3);  // square: also a valid capture image but for the bad texel
+    for (float& p : env.pixels)
+      p = 1;
+    env.at(5, 3, 1) = value;
+    write_image(dir.file(name), env);
+  }
+  std::filesystem::create_directories(dir.file("folder"));
+  // A .qt file of a future format version, otherwise well formed.
+  const QtFile ok = QtFile::load(dir.file("ok.qt"));
+  flatbuffers::FlatBufferBuilder b;
+  const QuadtreeView tree = ok.tree();
+  const format::TreeExtent extent(0, std::uint32_t(tree.node_count()));
+  const auto trees = format::CreateTreeSet(
+      b, tree.shape().resolution, tree.shape().channels, 1, 0.05, format::ToleranceMode::Relative,
+      0, b.CreateVectorOfStructs(&extent, 1),
+      b.CreateVectorOfStructs(reinterpret_cast<const format::Quad*>(tree.nodes().data()),
+                              tree.nodes().size()),
+      b.CreateVectorOfStructs(reinterpret_cast<const format::Quad*>(tree.errors().data()),
+                              tree.errors().size()));
+  format::FinishFileBuffer(
+      b, format::CreateFile(b, 99, format::Kind::Tree, format::Mapping::CosineConcentric, trees));
+  std::ofstream(dir.file("future.qt"), std::ios::binary)
+      .write(reinterpret_cast<const char*>(b.GetBufferPointer()), std::streamsize(b.GetSize()));
+}
+
+void check(const TempDir& dir, const std::string& tool, const Expectation& e) {
+  const auto before = dir.entries();
+  const auto r = run_tool(tool, e.args, dir.path());
+  std::string command = tool;
+  for (const auto& a : e.args)
+    command += " " + a;
+  EXPECT_EQ(r.status, e.status) << command << "\n" << r.err;
+  const int lines = testing::line_count(r.err);
+  EXPECT_TRUE(lines >= 1 && lines <= 3) << command << "\n" << r.err;
+  EXPECT_NE(r.err.find(e.mentions), std::string::npos) << command << "\n" << r.err;
+  EXPECT_EQ(dir.entries(), before) << command;  // no output, no temporary
+}
+
+TEST(BadInputMatrix, QtReaders) {
+  TempDir dir;
+  write_inputs(dir);
+  for (const std::string name :
+       {"missing.qt", "empty.qt", "folder", "truncated.qt", "foreign.qt", "future.qt"}) {
+    check(dir, "qtinfo", {{name}, 1, name});
+    check(dir, "qtconvolve", {{name, "cap.qt"}, 1, name});
+    check(dir, "qtconvolve", {{"ok.qt", name}, 1, name});
+  }
+  check(dir, "qtinfo", {{"future.qt"}, 1, "format version 99 is newer"});
+}
+
+TEST(BadInputMatrix, Specs) {
+  TempDir dir;
+  write_inputs(dir);
+  for (const std::string name :
+       {"missing.json", "empty.json", "folder", "truncated.json", "foreign.json", "nan.json",
+        "negative.json", "missing_field.json", "unknown.json"})
+    check(dir, "brdf2qt", {{name, "-o", "out.qt", "-q"}, 1, name});
+  check(dir, "brdf2qt", {{"negative.json", "-o", "out.qt"}, 1, "field 'ks'"});
+  check(dir, "brdf2qt", {{"missing_field.json", "-o", "out.qt"}, 1, "field 'alpha'"});
+  check(dir, "brdf2qt", {{"unknown.json", "-o", "out.qt"}, 1, "unknown model 'cook-torrance'"});
+}
+
+TEST(BadInputMatrix, CaptureInputs) {
+  TempDir dir;
+  write_inputs(dir);
+  for (const std::string name : {"missing.exr", "truncated.exr", "foreign.exr", "folder"}) {
+    check(dir, "capture2qt", {{"--env", name, "--at", "0,0,0", "-o", "out.qt"}, 1, name});
+    check(dir, "capture2qt", {{"--image", name, "-o", "out.qt"}, 1, name});
+  }
+  // Negative environment texels are read as 0 with a warning (Capture2qtCli tests that).
+  for (const std::string name : {"nan.exr", "inf.exr"})
+    check(dir, "capture2qt", {{"--env", name, "--at", "0,0,0", "-o", "out.qt"}, 1, name});
+  for (const std::string name : {"nan.exr", "inf.exr", "negative.exr"})
+    check(dir, "capture2qt", {{"--image", name, "-o", "out.qt"}, 1, name});
+  for (const std::string name :
+       {"missing.obj", "empty.obj", "truncated.obj", "foreign.obj", "folder"})
+    check(dir, "capture2qt",
+          {{"--env-constant", "1,1,1", "--scene", name, "--sample", "2", "-o", "out.qt"}, 1, name});
+  for (const std::string name : {"missing.csv", "empty.csv", "foreign.csv", "folder"})
+    check(dir, "capture2qt",
+          {{"--env-constant", "1,1,1", "--points", name, "-o", "out.qt"}, 1, name});
+}
+
+TEST(BadInputMatrix, AbsurdSizesAndTolerances) {
+  TempDir dir;
+  write_inputs(dir);
+  // Texel resolutions are powers of two from 2 to 512; the outgoing grid takes 2 to 256.
+  for (const std::string res : {"1", "3", "1000000", "-4", "x"}) {
+    check(dir, "brdf2qt", {{"ok.json", "--wi-res", res, "-o", "out.qt"}, 2, "--wi-res"});
+    check(dir, "capture2qt",
+          {{"--env-constant", "1,1,1", "--at", "0,0,0", "--res", res, "-o", "out.qt"}, 2, "--res"});
+  }
+  for (const std::string res : {"1", "257", "1000000", "-4", "x"})
+    check(dir, "brdf2qt", {{"ok.json", "--wo-res", res, "-o", "out.qt"}, 2, "--wo-res"});
+  check(dir, "brdf2qt", {{"ok.json", "--tolerance", "-0.1", "-o", "out.qt"}, 2, "--tolerance"});
+  check(dir, "capture2qt",
+        {{"--env-constant", "1,1,1", "--at", "0,0,0", "--tolerance", "-1", "-o", "out.qt"},
+         2,
+         "--tolerance"});
+  check(dir, "capture2qt",
+        {{"--env-constant", "1,1,1", "--at", "0,0,0", "--spp", "1000000", "-o", "out.qt"},
+         2,
+         "--spp"});
+  check(dir, "capture2qt",
+        {{"--env-constant", "1,1,1", "--sample", "100000000000", "-o", "out.qt"}, 2, "--sample"});
+  check(dir, "qtinfo", {{"ok.qt", "--png", "x.png", "--size", "1000000"}, 2, "--size"});
+}
+
+TEST(BadInputMatrix, UnwritableOutputs) {
+  TempDir dir;
+  write_inputs(dir);
+  // A missing folder, a folder /proc refuses (even to root), and a full device.
+  for (const std::string out : {"no/such/folder/out.qt", "/proc/basis-test.qt", "/dev/full"}) {
+    check(dir, "brdf2qt", {{"ok.json", "--wo-res", "3", "--wi-res", "8", "-q", "-o", out}, 1, out});
+    check(dir, "capture2qt",
+          {{"--env-constant", "1,1,1", "--at", "0,0,0", "--res", "8", "-q", "-o", out}, 1, out});
+  }
+  for (const std::string out : {"no/such/folder/x.png", "/proc/basis-test.png"}) {
+    check(dir, "qtinfo", {{"ok.qt", "--png", out}, 1, out});
+    check(dir, "qtconvolve", {{"ok.qt", "cap.qt", "--png", out}, 1, out});
+  }
+}
+
+}  // namespace
+}  // namespace basis

@@ -1,0 +1,215 @@
+// capture2qt end to end: lights, scenes and points in, capture sets out; bad input refused in
+// one line, unrepresentable environment texels counted, interrupts leave nothing.
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "basis/format/qt_file.h"
+#include "basis/io/image_file.h"
+#include "support/run_tool.h"
+#include "support/temp_dir.h"
+
+namespace basis {
+namespace {
+
+using testing::run_tool;
+using testing::TempDir;
+
+// A floor (two triangles, facing +z) and a small box on it, as an OBJ with an emitting lamp.
+void write_room(const TempDir& dir) {
+  std::ofstream(dir.file("room.mtl")) << "newmtl lamp\nKe 5 5 4\nnewmtl plain\nKd 0.5 0.5 0.5\n";
+  std::ofstream(dir.file("room.obj")) << "mtllib room.mtl\n"
+                                         "v -5 -5 0\nv 5 -5 0\nv 5 5 0\nv -5 5 0\n"
+                                         "v -1 -1 2\nv 1 -1 2\nv 1 1 2\nv -1 1 2\n"
+                                         "usemtl plain\nf 1 2 3 4\n"
+                                         "usemtl lamp\nf 5 8 7 6\n";
+}
+
+TEST(Capture2qtCli, CapturesAPointUnderAConstantLight) {
+  TempDir dir;
+  const auto r = run_tool("capture2qt",
+                          {"--env-constant", "1,2,3", "--at", "0,0,0", "--normal", "0,0,2", "--res",
+                           "16", "-o", "one.qt"},
+                          dir.path());
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("one.qt: 1 captures of 16 x 16 texels"), std::string::npos) << r.out;
+  const QtFile f = QtFile::load(dir.file("one.qt"));
+  ASSERT_EQ(f.kind(), QtKind::capture_set);
+  EXPECT_EQ(f.captures().size(), 1u);
+  EXPECT_EQ(f.captures().normals[0], Vec3(0, 0, 1));
+  EXPECT_EQ(f.trees().tree(0).node_count(), 1);  // constant: a single node
+  EXPECT_NEAR(integrate(f.trees().tree(0), 0, 2), 3, 1e-6);
+}
+
+TEST(Capture2qtCli, SamplesAnObjSceneDeterministicallyAndDumpsTexels) {
+  TempDir dir;
+  write_room(dir);
+  std::filesystem::create_directories(dir.file("dump"));
+  const std::vector<std::string> args = {
+      "--env-constant", "1,1,1", "--scene", "room.obj", "--sample", "6", "--seed", "9",
+      "--res",          "16",    "--quiet", "--dump",   "dump"};
+  auto with = [&](std::vector<std::string> extra) {
+    std::vector<std::string> all = args;
+    all.insert(all.end(), extra.begin(), extra.end());
+    return all;
+  };
+  ASSERT_EQ(run_tool("capture2qt", with({"-o", "a.qt", "--threads", "1"}), dir.path()).status, 0);
+  ASSERT_EQ(run_tool("capture2qt", with({"-o", "b.qt", "--threads", "2"}), dir.path()).status, 0);
+  EXPECT_EQ(testing::slurp(dir.file("a.qt")), testing::slurp(dir.file("b.qt")));
+  const QtFile f = QtFile::load(dir.file("a.qt"));
+  ASSERT_EQ(f.captures().size(), 6u);
+  for (std::size_t i = 0; i < 6; ++i) {
+    const Vec3& p = f.captures().positions[i];
+    // Points lie on the floor (z = 0, normal +z) or on the lamp (z = 2, facing down).
+    EXPECT_TRUE(std::abs(p[2]) < 1e-6 || std::abs(p[2] - 2) < 1e-6);
+    EXPECT_NEAR(std::abs(f.captures().normals[i][2]), 1, 1e-9);
+  }
+  const Image dumped = read_image(dir.file("dump/capture_00000.exr"));
+  EXPECT_EQ(dumped.width, 16);
+  EXPECT_EQ(dumped.height, 16);
+}
+
+TEST(Capture2qtCli, ReadsPointFilesAndCompressesImages) {
+  TempDir dir;
+  std::ofstream(dir.file("points.csv")) << "# x,y,z,nx,ny,nz\n0,0,0,0,0,1\n\n1,2,3,0,3,0\n";
+  ASSERT_EQ(run_tool("capture2qt",
+                     {"--env-constant", "1,1,1", "--points", "points.csv", "--res", "8", "-q"},
+                     dir.path())
+                .status,
+            0);
+  const QtFile f = QtFile::load(dir.file("captures.qt"));
+  ASSERT_EQ(f.captures().size(), 2u);
+  EXPECT_EQ(f.captures().positions[1], Vec3(1, 2, 3));
+  EXPECT_EQ(f.captures().normals[1], Vec3(0, 1, 0));
+
+  Image image(32, 32, 3);
+  for (int y = 0; y < 32; ++y)
+    for (int x = 0; x < 32; ++x)
+      for (int c = 0; c < 3; ++c)
+        image.at(x, y, c) = x > y ? 2.0f : 0.5f + 0.1f * c;
+  write_image(dir.file("capture.exr"), image);
+  const auto r = run_tool("capture2qt", {"--image", "capture.exr", "--tolerance", "0"}, dir.path());
+  ASSERT_EQ(r.status, 0) << r.err;
+  const QtFile tree = QtFile::load(dir.file("capture.qt"));
+  ASSERT_EQ(tree.kind(), QtKind::tree);
+  const Grid back = reconstruct(tree.tree());
+  for (int y = 0; y < 32; ++y)
+    for (int x = 0; x < 32; ++x)
+      EXPECT_EQ(back.at(0, 2, x, y), image.at(x, y, 2));
+}
+
+TEST(Capture2qtCli, RefusesNanAndInfiniteEnvironmentTexelsUnlessAskedToZeroThem) {
+  TempDir dir;
+  Image env(64, 32, 3);
+  for (float& p : env.pixels)
+    p = 1;
+  env.at(1, 1, 0) = std::nanf("");
+  env.at(2, 1, 1) = INFINITY;
+  env.at(3, 1, 2) = -4;
+  write_image(dir.file("env.exr"), env);
+  const auto refused =
+      run_tool("capture2qt", {"--env", "env.exr", "--at", "0,0,0", "--res", "8"}, dir.path());
+  EXPECT_EQ(refused.status, 1);
+  EXPECT_EQ(refused.err,
+            "capture2qt: env.exr: 1 NaN and 1 infinite texel values (repair the "
+            "map, or pass --zero-invalid to read them as 0)\n");
+  EXPECT_FALSE(std::filesystem::exists(dir.file("captures.qt")));
+
+  const auto r =
+      run_tool("capture2qt", {"--env", "env.exr", "--at", "0,0,0", "--res", "8", "--zero-invalid"},
+               dir.path());
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.err,
+            "capture2qt: warning: env.exr: 1 NaN, 1 infinite and 1 negative texel values "
+            "set to 0\n");
+  const QtFile f = QtFile::load(dir.file("captures.qt"));
+  EXPECT_TRUE(std::isfinite(integrate(f.trees().tree(0), 0, 0)));
+
+  // Negative texels alone (real maps carry a few from their processing) are read as 0.
+  env.at(1, 1, 0) = 1;
+  env.at(2, 1, 1) = 1;
+  write_image(dir.file("negative.exr"), env);
+  const auto negative =
+      run_tool("capture2qt", {"--env", "negative.exr", "--at", "0,0,0", "--res", "8", "-o", "n.qt"},
+               dir.path());
+  ASSERT_EQ(negative.status, 0) << negative.err;
+  EXPECT_EQ(negative.err,
+            "capture2qt: warning: negative.exr: 0 NaN, 0 infinite and 1 negative "
+            "texel values set to 0\n");
+}
+
+TEST(Capture2qtCli, BadScenesAndImagesAreOneLineExitOne) {
+  TempDir dir;
+  std::ofstream(dir.file("nan.obj")) << "v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n";
+  std::ofstream(dir.file("range.obj")) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n";
+  std::ofstream(dir.file("empty.obj")) << "# nothing\n";
+  std::ofstream(dir.file("bad.csv")) << "0,0,0,0,0,1\n1,2,three,0,0,1\n";
+  Image wide(32, 16, 3);
+  write_image(dir.file("wide.exr"), wide);
+  const std::vector<std::vector<std::string>> cases = {
+      {"--env-constant", "1,1,1", "--scene", "nan.obj", "--sample", "3"},
+      {"--env-constant", "1,1,1", "--scene", "range.obj", "--sample", "3"},
+      {"--env-constant", "1,1,1", "--scene", "empty.obj", "--sample", "3"},
+      {"--env-constant", "1,1,1", "--scene", "missing.obj", "--sample", "3"},
+      {"--env-constant", "1,1,1", "--points", "bad.csv"},
+      {"--env", "missing.hdr", "--at", "0,0,0"},
+      {"--env", "bad.csv", "--at", "0,0,0"},
+      {"--image", "wide.exr"}};
+  for (const auto& args : cases) {
+    const auto r = run_tool("capture2qt", args, dir.path());
+    EXPECT_EQ(r.status, 1) << args[3] << ": " << r.err;
+    EXPECT_EQ(testing::line_count(r.err), 1) << r.err;
+  }
+  EXPECT_NE(run_tool("capture2qt", cases[1], dir.path()).err.find("uses vertex 9 of 3"),
+            std::string::npos);
+  EXPECT_NE(run_tool("capture2qt", cases[4], dir.path()).err.find("bad.csv:2:"), std::string::npos);
+  // A degenerate triangle is dropped with a warning.
+  std::ofstream(dir.file("flat.obj")) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\n";
+  const auto flat = run_tool("capture2qt",
+                             {"--env-constant", "1,1,1", "--scene", "flat.obj", "--sample", "2",
+                              "--res", "8", "-o", "flat.qt"},
+                             dir.path());
+  EXPECT_EQ(flat.status, 0) << flat.err;
+  EXPECT_NE(flat.err.find("1 degenerate triangles dropped"), std::string::npos) << flat.err;
+  std::vector<std::string> expected = {"bad.csv", "empty.obj", "flat.obj", "flat.qt",
+                                       "nan.obj", "range.obj", "wide.exr"};
+  EXPECT_EQ(dir.entries(), expected);
+}
+
+TEST(Capture2qtCli, BadUsageIsExitTwo) {
+  TempDir dir;
+  write_room(dir);
+  for (const std::vector<std::string>& args :
+       {std::vector<std::string>{"--at", "0,0,0"},
+        {"--env-constant", "1,1,1"},
+        {"--env-constant", "1,1,1", "--at", "0,0,0", "--res", "3"},
+        {"--env-constant", "1,1,1", "--at", "0,0,0", "--spp", "3"},
+        {"--env-constant", "1,1,1", "--at", "0,0"},
+        {"--env-constant", "1,1,1", "--at", "0,0,0", "--normal", "0,0,0"},
+        {"--env-constant", "1,1,1", "--sample", "5"},
+        {"--env-constant", "1,-1,1", "--at", "0,0,0"},
+        {"--env-constant", "1,1,1", "--at", "0,0,0", "--points", "p.csv"},
+        {"--env-constant", "1,1,1", "--at", "0,0,0", "--env", "x.hdr"}}) {
+    const auto r = run_tool("capture2qt", args, dir.path());
+    EXPECT_EQ(r.status, 2) << r.err;
+    EXPECT_EQ(testing::line_count(r.err), 1) << r.err;
+  }
+  EXPECT_EQ(dir.entries(), (std::vector<std::string>{"room.mtl", "room.obj"}));
+}
+
+TEST(Capture2qtCli, InterruptLeavesNoOutput) {
+  TempDir dir;
+  write_room(dir);
+  for (const int signal_number : {SIGINT, SIGTERM}) {
+    const auto r = run_tool(
+        "capture2qt",
+        {"--env-constant", "1,1,1", "--scene", "room.obj", "--sample", "100000", "--res", "64"},
+        dir.path(), 500, signal_number);
+    EXPECT_EQ(r.status, 130) << r.err;
+    EXPECT_NE(r.err.find("interrupted"), std::string::npos) << r.err;
+    EXPECT_EQ(dir.entries(), (std::vector<std::string>{"room.mtl", "room.obj"}));
+  }
+}
+
+}  // namespace
+}  // namespace basis
