@@ -7,6 +7,7 @@
 
 #include "basis/brdf/brdf_spec.h"
 #include "basis/brdf/brdf_table.h"
+#include "basis/core/projection.h"
 #include "basis/core/version.h"
 #include "basis/format/qt_file.h"
 #include "cli.h"

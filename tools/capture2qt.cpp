@@ -6,6 +6,7 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
+#include "basis/core/projection.h"
 #include "basis/core/version.h"
 #include "basis/format/qt_file.h"
 #include "basis/io/image_file.h"
@@ -220,7 +221,8 @@ int main(int argc, char** argv) {
     options.capture.seed = seed;
     options.capture.ray_offset = 1e-4 * std::max(1.0, mesh ? mesh->extent() : 1.0);
     options.projection = projection;
-    options.separate_lights = !splat;
+    options.capture.compact_lights = splat ? basis::CaptureOptions::CompactLights::splatted
+                                           : basis::CaptureOptions::CompactLights::apart;
     if (!dump.empty()) {
       if (!std::filesystem::is_directory(dump))
         throw basis::FileError(dump + ": not a directory (--dump writes into an existing one)");

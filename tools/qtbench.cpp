@@ -155,7 +155,8 @@ int main(int argc, char** argv) {
     std::vector<Light> lights = {{"sun", nullptr, {}}};
     if (!quick) lights.push_back({"sun+occluder", &wall_scene, {}});
     for (Light& l : lights)
-      l.grid = capture(env, l.scene, Vec3::Zero(), frame, {.resolution = finest, .strata = 2});
+      l.grid =
+          capture(env, l.scene, Vec3::Zero(), frame, {.resolution = finest, .strata = 2}).texels;
 
     // Outgoing directions: where the sun's mirror image lies (the highlight), and oblique.
     const Vec3 sun_local = frame.to_local(sun);

@@ -63,10 +63,13 @@ std::vector<basis::Rgb> references(const basis::QtFile& table_file,
   std::vector<basis::Rgb> out(captures.size());
   for (std::size_t k = 0; k < captures.size(); ++k) {
     progress.control().check();
-    std::vector<basis::DirectionalLight> lights;
-    const basis::Grid grid =
-        basis::capture(environment, scene.get(), captures.positions[k], captures.frame(k),
-                       recipe.options, k, nullptr, lights_apart ? &lights : nullptr);
+    basis::CaptureOptions options = recipe.options;
+    options.compact_lights = lights_apart ? basis::CaptureOptions::CompactLights::apart
+                                          : basis::CaptureOptions::CompactLights::splatted;
+    const basis::Capture c = basis::capture(environment, scene.get(), captures.positions[k],
+                                            captures.frame(k), options, k);
+    const basis::Grid& grid = c.texels;
+    const std::vector<basis::DirectionalLight>& lights = c.lights;
     basis::Rgb sum{0, 0, 0};
     for (const auto& [weight, entry] : entries) {
       const basis::Rgb d = basis::dense_convolve_naive(entry, grid);

@@ -1,4 +1,5 @@
 #include "basis/format/qt_file.h"
+#include "basis/core/projection.h"
 
 #include <fcntl.h>
 #include <sys/mman.h>
@@ -53,28 +54,15 @@ std::span<const T> as_span(const flatbuffers::Vector<const F*>* v, const std::st
   return {reinterpret_cast<const T*>(v->Data()), v->size()};
 }
 
-bool all_finite(std::span<const Quad> quads) {
-  std::uint32_t largest = 0;
-  for (const Quad& q : quads)
-    for (float v : q.lane) {
-      std::uint32_t bits;
-      std::memcpy(&bits, &v, sizeof bits);
-      largest = std::max(largest, bits & 0x7fffffffu);
-    }
-  return largest <= 0x7f7fffffu;
-}
-
 // All value quads (every quad but each node's first, the links) are finite.
 bool values_finite(std::span<const Quad> nodes, std::size_t stride) {
-  std::uint32_t largest = 0;
   for (std::size_t n = 0; n < nodes.size(); n += stride)
-    for (std::size_t k = 1; k < stride; ++k)
-      for (float v : nodes[n + k].lane) {
-        std::uint32_t bits;
-        std::memcpy(&bits, &v, sizeof bits);
-        largest = std::max(largest, bits & 0x7fffffffu);
-      }
-  return largest <= 0x7f7fffffu;
+    if (!all_finite({nodes[n + 1].lane, (stride - 1) * 4})) return false;
+  return true;
+}
+
+std::span<const float> lanes(std::span<const Quad> quads) {
+  return {reinterpret_cast<const float*>(quads.data()), quads.size() * 4};
 }
 
 bool finite_unit_frames(std::span<const Vec3> values, bool unit) {
@@ -346,7 +334,7 @@ TreeSetView QtFile::verify_tree_set(const void* set_pointer, const std::string& 
       fail(name_, what + ": tree " + std::to_string(i) + ": " + problem);
   if (!values_finite(nodes, shape.stride()))
     fail(name_, what + ": a node holds a NaN or infinite value");
-  if (!all_finite(errors)) fail(name_, what + ": an error bound is NaN or infinite");
+  if (!all_finite(lanes(errors))) fail(name_, what + ": an error bound is NaN or infinite");
   for (const Quad& q : errors)
     for (float e : q.lane)
       if (e < 0) fail(name_, what + ": an error bound is negative");

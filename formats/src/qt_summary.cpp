@@ -1,4 +1,5 @@
 #include "basis/format/qt_summary.h"
+#include "basis/core/projection.h"
 
 #include <algorithm>
 #include <cstdio>

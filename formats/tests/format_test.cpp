@@ -10,6 +10,7 @@
 #include <random>
 
 #include "basis/core/convolution.h"
+#include "basis/core/projection.h"
 #include "basis/format/qt_file.h"
 #include "basis_generated.h"
 #include "support/temp_dir.h"

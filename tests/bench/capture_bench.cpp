@@ -8,7 +8,7 @@
 #include <numbers>
 
 #include "basis/brdf/brdf_table.h"
-#include "basis/core/quadtree.h"
+#include "basis/core/projection.h"
 #include "basis/lighting/capture.h"
 #include "basis/lighting/embree_scene.h"
 #include "basis/lighting/shading.h"
@@ -90,7 +90,8 @@ void BM_Capture(benchmark::State& state) {
   for (auto _ : state) {
     const Grid g =
         capture(sky(), &scene(), Vec3(0.5, 0.5, 0.8 * std::sin(0.45) * std::cos(0.35) + 1e-3),
-                frame, {.resolution = res, .strata = 2}, index++);
+                frame, {.resolution = res, .strata = 2}, index++)
+            .texels;
     benchmark::DoNotOptimize(g.texels.data());
   }
   state.SetItemsProcessed(state.iterations());  // captures per second
@@ -106,7 +107,8 @@ void BM_CaptureProjection(benchmark::State& state) {
   const int res = int(state.range(0));
   const Grid g =
       capture(sky(), &scene(), Vec3(0.5, 0.5, 0.8 * std::sin(0.45) * std::cos(0.35) + 1e-3),
-              Frame::from_normal(Vec3(0.1, 0.2, 1).normalized()), {.resolution = res, .strata = 2});
+              Frame::from_normal(Vec3(0.1, 0.2, 1).normalized()), {.resolution = res, .strata = 2})
+          .texels;
   QuadtreeProjector projector;
   Quadtree tree;
   for (auto _ : state) {
@@ -135,7 +137,9 @@ void BM_ShadeSun(benchmark::State& state) {
   const SurfacePoint point{Vec3::Zero(), Vec3(0.1, 0.2, 1).normalized()};
   CaptureSetOptions capture_options;
   capture_options.capture.resolution = 32;
-  capture_options.separate_lights = state.range(0) > 0;
+  capture_options.capture.compact_lights = state.range(0) > 0
+                                               ? CaptureOptions::CompactLights::apart
+                                               : CaptureOptions::CompactLights::splatted;
   const CaptureSet set = capture_set(sky(), nullptr, {&point, 1}, capture_options);
   ShadingOptions options;
   options.wo = Vec3(0.3, -0.2, 0.93).normalized();

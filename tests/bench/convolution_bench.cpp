@@ -6,7 +6,7 @@
 
 #include "basis/core/convolution.h"
 #include "basis/core/dense.h"
-#include "basis/core/quadtree.h"
+#include "basis/core/projection.h"
 #include "bench_scenes.h"
 
 namespace basis::bench {

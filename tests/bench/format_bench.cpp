@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <random>
 
+#include "basis/core/projection.h"
 #include "basis/format/qt_file.h"
 #include "bench_scenes.h"
 

@@ -4,6 +4,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "basis/core/projection.h"
 #include "basis/format/qt_file.h"
 #include "basis/io/image_file.h"
 #include "support/run_tool.h"

@@ -4,6 +4,7 @@
 #include <cstdint>
 
 #include "basis/core/convolution.h"
+#include "basis/core/projection.h"
 #include "basis/format/qt_file.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

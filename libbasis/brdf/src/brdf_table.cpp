@@ -11,6 +11,7 @@
 #include "basis/brdf/tilt_derivative.h"
 #include "basis/core/hemisphere.h"
 #include "basis/core/parabolic.h"
+#include "basis/core/projection.h"
 
 namespace basis {
 

@@ -9,6 +9,7 @@
 #include "basis/brdf/brdf_spec.h"
 #include "basis/brdf/brdf_table.h"
 #include "basis/brdf/merl.h"
+#include "basis/core/projection.h"
 #include "support/brdf_reference.h"
 #include "support/temp_dir.h"
 

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "basis/brdf/brdf_table.h"
+#include "basis/core/projection.h"
 #include "support/brdf_reference.h"
 
 namespace basis {

@@ -22,6 +22,7 @@
 #include "basis/brdf/brdf_spec.h"
 #include "basis/brdf/brdf_table.h"
 #include "basis/brdf/rgl.h"
+#include "basis/core/projection.h"
 #include "support/temp_dir.h"
 
 namespace basis {

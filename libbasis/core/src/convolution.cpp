@@ -27,24 +27,27 @@ inline void check_compatible(const QuadtreeShape& a, const QuadtreeShape& b) {
 // ---------------------------------------------------------------- portable scalar reference
 
 struct ScalarSums {
-  double value[3] = {};
+  double value[3][3] = {};  // [group][channel]
   double bound[3] = {};
 };
 
+// Groups 0 .. groups-1 of a against group 0 of b; the bound is group 0's.
 void descend_scalar(const QuadtreeView& a, const QuadtreeView& b, int na, int nb, double area,
-                    int channels, ScalarSums& sums) {
+                    int channels, int groups, ScalarSums& sums) {
   const int ca_count = a.shape().channels, cb_count = b.shape().channels;
   for (int q = 0; q < 4; ++q) {
     const int child_a = a.child(na, q), child_b = b.child(nb, q);
     if (child_a && child_b) {
-      descend_scalar(a, b, child_a, child_b, area / 4, channels, sums);
+      descend_scalar(a, b, child_a, child_b, area / 4, channels, groups, sums);
       continue;
     }
     for (int c = 0; c < channels; ++c) {
       const int ca = ca_count == 1 ? 0 : c, cb = cb_count == 1 ? 0 : c;
-      const double va = a.value(na, 0, ca, q), vb = b.value(nb, 0, cb, q);
+      const double vb = b.value(nb, 0, cb, q);
+      for (int g = 0; g < groups; ++g)
+        sums.value[g][c] += a.value(na, g, ca, q) * vb * area;
+      const double va = a.value(na, 0, ca, q);
       const double ea = a.error(na, ca, q), eb = b.error(nb, cb, q);
-      sums.value[c] += va * vb * area;
       sums.bound[c] += area * std::min({ea * eb, ea * std::abs(vb), eb * std::abs(va)});
     }
   }
@@ -286,12 +289,25 @@ bool convolution_uses_simd() {
 #endif
 }
 
+GroupConvolution convolve_groups_scalar(const QuadtreeView& a, const QuadtreeView& b) {
+  check_compatible(a.shape(), b.shape());
+  const int channels = std::max(a.shape().channels, b.shape().channels);
+  const int groups = std::min(a.shape().groups, 3);
+  ScalarSums sums;
+  descend_scalar(a, b, 0, 0, 0.25, channels, groups, sums);
+  GroupConvolution result;
+  for (int g = 0; g < groups; ++g)
+    result.value[g] = channels_to_rgb(sums.value[g], channels);
+  result.bound = channels_to_rgb(sums.bound, channels);
+  return result;
+}
+
 Convolution convolve_scalar(const QuadtreeView& a, const QuadtreeView& b) {
   check_compatible(a.shape(), b.shape());
   const int channels = std::max(a.shape().channels, b.shape().channels);
   ScalarSums sums;
-  descend_scalar(a, b, 0, 0, 0.25, channels, sums);
-  return {channels_to_rgb(sums.value, channels), channels_to_rgb(sums.bound, channels)};
+  descend_scalar(a, b, 0, 0, 0.25, channels, 1, sums);
+  return {channels_to_rgb(sums.value[0], channels), channels_to_rgb(sums.bound, channels)};
 }
 
 Convolution convolve(const QuadtreeView& a, const QuadtreeView& b) {
@@ -319,10 +335,10 @@ Rgb convolve_value(const QuadtreeView& a, const QuadtreeView& b) {
 }
 
 GroupConvolution convolve_groups(const QuadtreeView& a, const QuadtreeView& b) {
+#if defined(__SSE2__)
   check_compatible(a.shape(), b.shape());
   const int channels = std::max(a.shape().channels, b.shape().channels);
   GroupConvolution result;
-#if defined(__SSE2__)
   float bound[4] = {};
   auto run = [&]<int G>() {
     float value[G][4] = {};
@@ -341,28 +357,10 @@ GroupConvolution convolve_groups(const QuadtreeView& a, const QuadtreeView& b) {
       run.operator()<3>();
   }
   result.bound = channels_to_rgb(bound, channels);
-#else
-  // Portable path: one scalar descent per group.
-  for (int g = 0; g < a.shape().groups; ++g) {
-    double sum[3] = {};
-    auto visit = [&](auto&& self, int na, int nb, double area) -> void {
-      for (int q = 0; q < 4; ++q) {
-        const int ca = a.child(na, q), cb = b.child(nb, q);
-        if (ca && cb) {
-          self(self, ca, cb, area / 4);
-          continue;
-        }
-        for (int c = 0; c < channels; ++c)
-          sum[c] += area * a.value(na, g, a.shape().channels == 1 ? 0 : c, q) *
-                    b.value(nb, 0, b.shape().channels == 1 ? 0 : c, q);
-      }
-    };
-    visit(visit, 0, 0, 0.25);
-    result.value[g] = channels_to_rgb(sum, channels);
-  }
-  result.bound = convolve_scalar(a, b).bound;
-#endif
   return result;
+#else
+  return convolve_groups_scalar(a, b);
+#endif
 }
 
 Rgb convolve_product(std::span<const QuadtreeView> factors) {

@@ -1,5 +1,8 @@
 #include "basis/core/grid.h"
 
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
 #include <stdexcept>
 #include <string>
 
@@ -25,6 +28,18 @@ double Grid::mean(int group, int channel) const {
   for (float t : plane(group, channel))
     sum += t;
   return sum / double(plane_size());
+}
+
+bool all_finite(std::span<const float> values) {
+  // A float is Inf or NaN exactly when its magnitude bits exceed those of FLT_MAX; an unsigned
+  // max-reduction vectorises.
+  std::uint32_t largest = 0;
+  for (const float v : values) {
+    std::uint32_t bits;
+    std::memcpy(&bits, &v, sizeof bits);
+    largest = std::max(largest, bits & 0x7fffffffu);
+  }
+  return largest <= 0x7f7fffffu;
 }
 
 bool is_valid_resolution(int n) {

@@ -8,6 +8,7 @@
 #include "basis/core/convolution.h"
 #include "basis/core/dense.h"
 #include "basis/core/hemisphere.h"
+#include "basis/core/projection.h"
 #include "support/test_functions.h"
 
 namespace basis {
@@ -146,7 +147,7 @@ TEST(Convolution, DenseSimdMatchesNaive) {
   }
 }
 
-TEST(Convolution, GroupsEqualSeparateDenseProducts) {
+TEST(Convolution, GroupsEqualSeparateDenseProductsInSimdAndScalar) {
   Grid a(32, 3, 3);
   std::mt19937 rng(4);
   std::uniform_real_distribution<float> unit(-1, 2);
@@ -165,6 +166,15 @@ TEST(Convolution, GroupsEqualSeparateDenseProducts) {
       }
     EXPECT_EQ(groups.value[0], convolve_value(ta.view(), tb.view()));
     EXPECT_EQ(groups.bound, convolve(ta.view(), tb.view()).bound);
+    // The portable path agrees with the SIMD one, group by group.
+    const GroupConvolution scalar = convolve_groups_scalar(ta.view(), tb.view());
+    for (int c = 0; c < 3; ++c) {
+      for (int g = 0; g < 3; ++g)
+        EXPECT_NEAR(scalar.value[g][c], groups.value[g][c],
+                    1e-6 * std::abs(groups.value[g][c]) + 1e-6)
+            << name << g;
+      EXPECT_LT(relative_gap(scalar.bound[c], groups.bound[c]), 1e-6) << name;
+    }
   }
 }
 

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <cstring>
 
-#include "basis/core/quadtree.h"
+#include "basis/core/projection.h"
 #include "support/test_functions.h"
 
 namespace basis {

@@ -12,6 +12,7 @@
 
 #include "basis/core/file_error.h"
 #include "basis/core/hemisphere.h"
+#include "basis/core/projection.h"
 
 namespace basis {
 
@@ -29,28 +30,18 @@ double unit(std::uint64_t x) {
   return double(mix(x) >> 11) * 0x1.0p-53;
 }
 
-}  // namespace
-
-Grid capture(const Environment& environment, const RayScene* scene, const Vec3& position,
-             const Frame& frame, const CaptureOptions& options, std::uint64_t index,
-             CaptureStats* stats, std::vector<DirectionalLight>* lights) {
+// Phase 1: texel averages from the strata's rays. A ray that escapes takes the smooth part of
+// the environment averaged over its stratum, from m_u x m_v jittered points with about one per
+// map pixel the stratum spans along each side (1 to 8); a ray that hits takes the emission.
+// Rays are traced in batches of a row of texels.
+void trace_strata(const Environment& environment, const RayScene* scene, const Vec3& origin,
+                  const Frame& frame, const CaptureOptions& options, std::uint64_t stream,
+                  Grid& grid, CaptureStats& counts) {
   const int n = options.resolution, k = options.strata;
-  if (!is_valid_resolution(n))
-    throw std::invalid_argument("capture resolution must be a power of two from 2 to 512");
-  if (k < 1 || k > 64) throw std::invalid_argument("strata per axis must be 1..64");
-  Grid grid(n, 3);
-  const Vec3 origin = position + frame.normal * options.ray_offset;
-  const double texel_area = 1.0 / (double(n) * n);
-  const std::uint64_t stream = mix(options.seed ^ mix(index));
-
-  // Strata: one ray each, traced in batches of a row of texels. A ray that escapes takes the
-  // smooth part of the environment averaged over its stratum, from m_u x m_v jittered points
-  // with about one per map pixel the stratum spans along each side (1 to 8).
   const double stratum = 1.0 / (double(n) * k);
   const double pixel_angle = environment.pixel_angle();
   std::vector<Ray> rays(std::size_t(n) * k * k);
   std::vector<RayHit> hits(rays.size());
-  CaptureStats counts;
   auto stratum_corner = [&](int x, int y, int s) {
     return Vec2((x + double(s % k) / k) / n, (y + double(s / k) / k) / n);
   };
@@ -109,75 +100,103 @@ Grid capture(const Environment& environment, const RayScene* scene, const Vec3& 
     }
     counts.rays += std::int64_t(n) * k * k;
   }
+}
 
-  // Bright pixels: one shadow ray each (through the pixel's centre), their energy split into
-  // pieces that land exactly in the texel each falls in, or (for compact lights kept apart)
-  // that add to the light's energy and direction.
-  const int s = std::max(1, options.bright_subsamples);
-  std::vector<Ray> shadow;
-  struct Deposit {
-    std::size_t ray, texel;
-    int light;     // compact light kept apart, or -1 for a texel
-    Color energy;  // texels: radiance x weight; lights: radiance x solid angle
-    Vec3 local;
+// Phase 2: the pieces of the bright pixels above the horizon, each behind the shadow ray of its
+// pixel. A piece of a compact light kept apart carries radiance x solid angle; any other piece
+// its share of the texel it falls in (radiance x solid angle x cos / pi / texel area).
+struct BrightPieces {
+  struct Piece {
+    std::size_t ray;    // its pixel's shadow ray
+    std::size_t texel;  // y * N + x
+    int light;          // compact light kept apart, or -1 for a texel
+    Color energy;
+    Vec3 local;  // direction in the capture's frame
   };
-  std::vector<Deposit> deposits;
+  std::vector<Ray> shadow_rays;
+  std::vector<Piece> pieces;
+};
+
+BrightPieces gather_bright_pieces(const Environment& environment, const Vec3& origin,
+                                  const Frame& frame, const CaptureOptions& options) {
+  const int n = options.resolution;
+  const double texel_area = 1.0 / (double(n) * n);
+  const bool lights_apart = options.compact_lights == CaptureOptions::CompactLights::apart;
+  const int s = std::max(1, options.bright_subsamples);
+  BrightPieces out;
   for (const Environment::BrightPixel& b : environment.bright_pixels()) {
-    const Vec3 centre = environment.direction(b.column + 0.5, b.row + 0.5);
-    const int light = lights ? b.light : -1;
+    const int light = lights_apart ? b.light : -1;
     bool any = false;
-    for (int sy = 0; sy < s; ++sy) {
-      const double y0 = b.row + double(sy) / s, y1 = b.row + double(sy + 1) / s;
-      const double omega = environment.band_solid_angle(y0, y1, 1.0 / s);
-      for (int sx = 0; sx < s; ++sx) {
-        const Vec3 l =
-            frame.to_local(environment.direction(b.column + (sx + 0.5) / s, (y0 + y1) / 2));
-        if (l.z() <= 0) continue;
-        const auto [tx, ty] = cosine_hemisphere_texel(l, n);
-        const double weight = light >= 0 ? omega : omega * l.z() / std::numbers::pi / texel_area;
-        deposits.push_back({shadow.size(),
-                            std::size_t(ty) * n + tx,
-                            light,
-                            {b.excess[0] * weight, b.excess[1] * weight, b.excess[2] * weight},
-                            l});
-        any = true;
-      }
-    }
-    if (any) shadow.push_back({origin, centre});
+    environment.for_each_subpixel(
+        b.row, b.column, b.column + 1, s, [&](int, const Vec3& w, double solid_angle) {
+          const Vec3 l = frame.to_local(w);
+          if (l.z() <= 0) return;
+          const auto [tx, ty] = cosine_hemisphere_texel(l, n);
+          const double weight =
+              light >= 0 ? solid_angle : solid_angle * l.z() / std::numbers::pi / texel_area;
+          out.pieces.push_back({out.shadow_rays.size(),
+                                std::size_t(ty) * n + tx,
+                                light,
+                                {b.excess[0] * weight, b.excess[1] * weight, b.excess[2] * weight},
+                                l});
+          any = true;
+        });
+    if (any)
+      out.shadow_rays.push_back({origin, environment.direction(b.column + 0.5, b.row + 0.5)});
   }
-  std::vector<RayHit> shadow_hits(shadow.size());
-  if (scene && !shadow.empty()) scene->trace(shadow, shadow_hits);
-  counts.rays += std::int64_t(shadow.size());
+  return out;
+}
+
+// Phase 3: the visible pieces into their texels, or into their lights' energy and direction.
+void deposit_bright_pieces(const BrightPieces& bright, std::span<const RayHit> shadow_hits,
+                           std::size_t environment_lights, Grid& grid,
+                           std::vector<DirectionalLight>& lights) {
   struct Seen {
     Color energy{0, 0, 0};
     Vec3 direction = Vec3::Zero();
   };
-  std::vector<Seen> seen(lights ? environment.lights().size() : 0);
-  for (const Deposit& d : deposits) {
-    if (shadow_hits[d.ray].hit) continue;
-    if (d.light >= 0) {
-      Seen& light = seen[std::size_t(d.light)];
+  std::vector<Seen> seen(environment_lights);
+  const int n = grid.resolution;
+  for (const BrightPieces::Piece& piece : bright.pieces) {
+    if (shadow_hits[piece.ray].hit) continue;
+    if (piece.light >= 0) {
+      Seen& light = seen[std::size_t(piece.light)];
       for (int c = 0; c < 3; ++c)
-        light.energy[c] += d.energy[c];
-      light.direction += luminance(d.energy) * d.local;
+        light.energy[c] += piece.energy[c];
+      light.direction += luminance(piece.energy) * piece.local;
       continue;
     }
     for (int c = 0; c < 3; ++c)
-      grid.at(0, c, int(d.texel % n), int(d.texel / n)) += float(d.energy[c]);
+      grid.at(0, c, int(piece.texel % n), int(piece.texel / n)) += float(piece.energy[c]);
   }
-  if (lights) {
-    lights->clear();
-    for (const Seen& light : seen) {
-      if (!(light.direction.norm() > 0)) continue;
-      const Vec3 w = light.direction.normalized();
-      lights->push_back({w, light.energy});
-    }
+  for (const Seen& light : seen) {
+    if (!(light.direction.norm() > 0)) continue;
+    lights.push_back({light.direction.normalized(), light.energy});
   }
-  if (stats) {
-    stats->rays += counts.rays;
-    stats->escaped += counts.escaped;
-  }
-  return grid;
+}
+
+}  // namespace
+
+Capture capture(const Environment& environment, const RayScene* scene, const Vec3& position,
+                const Frame& frame, const CaptureOptions& options, std::uint64_t index) {
+  const int n = options.resolution, k = options.strata;
+  if (!is_valid_resolution(n))
+    throw std::invalid_argument("capture resolution must be a power of two from 2 to 512");
+  if (k < 1 || k > 64) throw std::invalid_argument("strata per axis must be 1..64");
+  Capture out{Grid(n, 3), {}, {}};
+  const Vec3 origin = position + frame.normal * options.ray_offset;
+  trace_strata(environment, scene, origin, frame, options, mix(options.seed ^ mix(index)),
+               out.texels, out.stats);
+
+  const BrightPieces bright = gather_bright_pieces(environment, origin, frame, options);
+  std::vector<RayHit> shadow_hits(bright.shadow_rays.size());
+  if (scene && !bright.shadow_rays.empty()) scene->trace(bright.shadow_rays, shadow_hits);
+  out.stats.rays += std::int64_t(bright.shadow_rays.size());
+  deposit_bright_pieces(bright, shadow_hits, environment.lights().size(), out.texels, out.lights);
+
+  if (!all_finite(out.texels.texels))
+    throw std::overflow_error("radiance too large: capture texels overflow float (3.4e38)");
+  return out;
 }
 
 void splat_lights(std::span<const DirectionalLight> lights, Grid& grid) {
@@ -215,9 +234,13 @@ CaptureSet capture_set(const Environment& environment, const RayScene* scene,
       const Vec3 n = points[i].normal.normalized();
       frames[i] = Frame::from_normal(n);
       const auto t0 = std::chrono::steady_clock::now();
-      CaptureStats stats;
-      const Grid grid = capture(environment, scene, points[i].position, frames[i], options.capture,
-                                i, &stats, options.separate_lights ? &lights[i] : nullptr);
+      Capture c;
+      try {
+        c = capture(environment, scene, points[i].position, frames[i], options.capture, i);
+      } catch (const std::overflow_error& e) {
+        throw FileError(environment.name() + ": " + e.what());
+      }
+      lights[i] = std::move(c.lights);
       const auto t1 = std::chrono::steady_clock::now();
       // A relative tolerance counts the lights kept apart in the capture's mean, as it would
       // count them splatted into their texels.
@@ -225,13 +248,17 @@ CaptureSet capture_set(const Environment& environment, const RayScene* scene,
       for (const DirectionalLight& light : lights[i])
         for (int c = 0; c < 3; ++c)
           projection.extra_mean[c] += light.energy[c] * light.direction.z() / std::numbers::pi;
-      projector.project(grid, projection, trees[i]);
+      try {
+        projector.project(c.texels, projection, trees[i]);
+      } catch (const std::overflow_error& e) {
+        throw FileError(environment.name() + ": radiance too large: " + e.what());
+      }
       const auto t2 = std::chrono::steady_clock::now();
-      if (options.on_grid) options.on_grid(i, grid, lights[i]);
+      if (options.on_grid) options.on_grid(i, c.texels, lights[i]);
       capture_ns += std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - t0).count();
       projection_ns += std::chrono::duration_cast<std::chrono::nanoseconds>(t2 - t1).count();
-      rays += stats.rays;
-      escaped += stats.escaped;
+      rays += c.stats.rays;
+      escaped += c.stats.escaped;
       bytes += (trees[i].nodes.size() + trees[i].errors.size()) * sizeof(Quad);
       if (bytes > options.max_bytes) too_large = true;
       control.report(++done, count);
@@ -242,6 +269,7 @@ CaptureSet capture_set(const Environment& environment, const RayScene* scene,
     throw std::length_error("the captures grow beyond " + std::to_string(options.max_bytes >> 20) +
                             " MiB (the limit of one .qt file): capture fewer points per file, "
                             "lower --res or raise the tolerance");
+  const bool lights_apart = options.capture.compact_lights == CaptureOptions::CompactLights::apart;
   CaptureSet set;
   set.trees = TreeSet(trees.front().shape);
   for (std::size_t i = 0; i < count; ++i) {
@@ -249,12 +277,12 @@ CaptureSet capture_set(const Environment& environment, const RayScene* scene,
     set.positions.push_back(points[i].position);
     set.normals.push_back(frames[i].normal);
     set.tangents.push_back(frames[i].tangent);
-    if (options.separate_lights) {
+    if (lights_apart) {
       set.light_offsets.push_back(std::uint32_t(set.lights.size()));
       set.lights.insert(set.lights.end(), lights[i].begin(), lights[i].end());
     }
   }
-  if (options.separate_lights) set.light_offsets.push_back(std::uint32_t(set.lights.size()));
+  if (lights_apart) set.light_offsets.push_back(std::uint32_t(set.lights.size()));
   if (timings) {
     timings->capture_seconds += capture_ns * 1e-9;
     timings->projection_seconds += projection_ns * 1e-9;

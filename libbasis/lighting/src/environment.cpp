@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 
@@ -9,8 +11,9 @@
 
 namespace basis {
 
-Environment::Environment(const Image& latlong, double rotate_z_degrees)
-    : width_(latlong.width),
+Environment::Environment(const Image& latlong, double rotate_z_degrees, std::string name)
+    : name_(std::move(name)),
+      width_(latlong.width),
       height_(latlong.height),
       rotation_(rotate_z_degrees * std::numbers::pi / 180) {
   if (width_ < 2 || height_ < 1) throw std::invalid_argument("environment map has no pixels");
@@ -129,7 +132,15 @@ void Environment::find_compact_lights(double level, std::span<const double> pixe
 }
 
 Environment Environment::constant(const Color& radiance) {
+  for (const double c : radiance)
+    if (!(c >= 0 && c <= std::numeric_limits<float>::max()))
+      throw std::invalid_argument(
+          "a constant radiance is finite, at least 0 and at most the largest float (3.4e38)");
   Environment e;
+  char name[96];
+  std::snprintf(name, sizeof name, "constant radiance %g,%g,%g", radiance[0], radiance[1],
+                radiance[2]);
+  e.name_ = name;
   e.constant_ = true;
   e.width_ = e.height_ = 1;
   e.pixels_ = {float(radiance[0]), float(radiance[1]), float(radiance[2])};
@@ -182,21 +193,14 @@ Color Environment::irradiance(const Vec3& n, int subsamples) const {
     return {l[0] * std::numbers::pi, l[1] * std::numbers::pi, l[2] * std::numbers::pi};
   }
   Color sum{0, 0, 0};
-  const double inv = 1.0 / subsamples;
   for (int y = 0; y < height_; ++y)
-    for (int sy = 0; sy < subsamples; ++sy) {
-      const double y0 = y + sy * inv, y1 = y0 + inv;
-      const double dw = band_solid_angle(y0, y1, inv);
-      for (int x = 0; x < width_; ++x) {
-        const Color l = pixel(y, x);
-        for (int sx = 0; sx < subsamples; ++sx) {
-          const double cosine = direction(x + (sx + 0.5) * inv, (y0 + y1) / 2).dot(n);
-          if (cosine <= 0) continue;
-          for (int c = 0; c < 3; ++c)
-            sum[c] += l[c] * cosine * dw;
-        }
-      }
-    }
+    for_each_subpixel(y, 0, width_, subsamples, [&](int x, const Vec3& w, double solid_angle) {
+      const double cosine = w.dot(n);
+      if (cosine <= 0) return;
+      const Color l = pixel(y, x);
+      for (int c = 0; c < 3; ++c)
+        sum[c] += l[c] * cosine * solid_angle;
+    });
   return sum;
 }
 

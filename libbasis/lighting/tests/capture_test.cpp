@@ -8,6 +8,7 @@
 
 #include "basis/brdf/brdf_table.h"
 #include "basis/core/hemisphere.h"
+#include "basis/core/projection.h"
 #include "basis/lighting/capture.h"
 #include "basis/lighting/embree_scene.h"
 #include "basis/lighting/shading.h"
@@ -23,7 +24,7 @@ std::vector<Vec3> normals() {
 
 // Reflected radiance of a white Lambert surface (albedo 1) under the capture: the irradiance
 // over pi, through a real BRDF table and its four-entry lookup.
-Rgb white_lambert(const Grid& capture_grid) {
+Rgb white_lambert(const Capture& capture) {
   static const BrdfTable table = [] {
     BrdfTableOptions o;
     o.wo_resolution = 3;
@@ -31,7 +32,7 @@ Rgb white_lambert(const Grid& capture_grid) {
     o.tilt_derivatives = false;
     return tabulate_brdf(Lambert{{1, 1, 1}}, o);
   }();
-  const Quadtree tree = project(capture_grid, {.tolerance = 0.05});
+  const Quadtree tree = project(capture.texels, {.tolerance = 0.05});
   return reflect(table.view(), tree.view(), Vec3::UnitZ()).value;
 }
 
@@ -129,7 +130,8 @@ TEST(Capture, ASunSmallerThanATexelKeepsItsEnergy) {
   const Color expected = env.irradiance(n);  // 1e5 x solid angle x cosine, by the map's pixels
   ASSERT_GT(expected[0], 0);
   for (int res : {8, 16, 32, 64}) {
-    const Grid g = capture(env, nullptr, Vec3::Zero(), Frame::from_normal(n), {.resolution = res});
+    const Grid g =
+        capture(env, nullptr, Vec3::Zero(), Frame::from_normal(n), {.resolution = res}).texels;
     const double energy = std::numbers::pi * g.mean(0, 0);  // integral of L cos over the texels
     EXPECT_NEAR(energy, expected[0], 0.02 * expected[0]) << res;
     // The sun stays where it is: a texel or its neighbours hold 99.9 % of the energy.
@@ -190,10 +192,12 @@ TEST(Capture, LightsKeptApartCarryWhatTheTexelsWouldHold) {
     const Frame frame = Frame::from_normal(n);
     const Color expected = env.irradiance(n);  // integral of L cos over the map's pixels
     for (int res : {16, 64}) {
-      std::vector<DirectionalLight> lights;
-      const Grid apart =
-          capture(env, nullptr, Vec3::Zero(), frame, {.resolution = res}, 0, nullptr, &lights);
-      const Grid splatted = capture(env, nullptr, Vec3::Zero(), frame, {.resolution = res});
+      const Capture kept_apart =
+          capture(env, nullptr, Vec3::Zero(), frame,
+                  {.resolution = res, .compact_lights = CaptureOptions::CompactLights::apart});
+      const Grid& apart = kept_apart.texels;
+      const std::vector<DirectionalLight>& lights = kept_apart.lights;
+      const Grid splatted = capture(env, nullptr, Vec3::Zero(), frame, {.resolution = res}).texels;
       std::size_t seen = 0;
       for (const auto& light : env.lights())
         seen += frame.to_local(light.direction).z() > 0 ? 1 : 0;
@@ -251,13 +255,14 @@ TEST(Capture, ProductsWithLightsStayWithinTheirBoundOfTheTexels) {
   std::vector<Grid> apart_grids(points.size()), splat_grids(points.size());
   CaptureSetOptions options;
   options.capture.resolution = 16;
+  options.capture.compact_lights = CaptureOptions::CompactLights::apart;
   options.projection.tolerance = 0.2;  // coarse trees: the bound has work to do
   options.on_grid = [&](std::size_t k, const Grid& grid, std::span<const DirectionalLight> l) {
     apart_grids[k] = grid;
     splat_lights(l, apart_grids[k]);
   };
   const CaptureSet apart = capture_set(env, nullptr, points, options);
-  options.separate_lights = false;
+  options.capture.compact_lights = CaptureOptions::CompactLights::splatted;
   options.on_grid = [&](std::size_t k, const Grid& grid, std::span<const DirectionalLight>) {
     splat_grids[k] = grid;
   };
@@ -308,9 +313,10 @@ TEST(Capture, AnOccludedSunIsNoLight) {
     wall.triangles = {{0, 1, 2}, {0, 2, 3}};
     wall.emission = {{0, 0, 0}, {0, 0, 0}};
     const EmbreeScene scene(wall);
-    std::vector<DirectionalLight> lights;
-    capture(env, &scene, Vec3::Zero(), Frame::from_normal(sun), {.resolution = 16}, 0, nullptr,
-            &lights);
+    const std::vector<DirectionalLight> lights =
+        capture(env, &scene, Vec3::Zero(), Frame::from_normal(sun),
+                {.resolution = 16, .compact_lights = CaptureOptions::CompactLights::apart})
+            .lights;
     EXPECT_EQ(lights.size(), side > 0 ? 0u : 1u) << side;
   }
 }
@@ -323,9 +329,9 @@ TEST(Capture, IsDeterministicAndJitterDependsOnTheSeed) {
   wall.emission = {{0, 0, 0}};
   const EmbreeScene scene(wall);
   const Frame f = Frame::from_normal(Vec3::UnitZ());
-  const Grid a = capture(env, &scene, Vec3::Zero(), f, {.resolution = 32, .seed = 3}, 7);
-  const Grid b = capture(env, &scene, Vec3::Zero(), f, {.resolution = 32, .seed = 3}, 7);
-  const Grid c = capture(env, &scene, Vec3::Zero(), f, {.resolution = 32, .seed = 4}, 7);
+  const Grid a = capture(env, &scene, Vec3::Zero(), f, {.resolution = 32, .seed = 3}, 7).texels;
+  const Grid b = capture(env, &scene, Vec3::Zero(), f, {.resolution = 32, .seed = 3}, 7).texels;
+  const Grid c = capture(env, &scene, Vec3::Zero(), f, {.resolution = 32, .seed = 4}, 7).texels;
   EXPECT_EQ(a.texels, b.texels);
   EXPECT_NE(a.texels, c.texels);
 }
@@ -341,7 +347,8 @@ TEST(Capture, EnvironmentRepairsNonFiniteAndNegativeTexels) {
   EXPECT_EQ(env.repairs().infinite, 2);
   EXPECT_EQ(env.repairs().negative, 1);
   const Grid g =
-      capture(env, nullptr, Vec3::Zero(), Frame::from_normal(Vec3::UnitZ()), {.resolution = 16});
+      capture(env, nullptr, Vec3::Zero(), Frame::from_normal(Vec3::UnitZ()), {.resolution = 16})
+          .texels;
   for (float t : g.texels)
     ASSERT_TRUE(std::isfinite(t) && t >= 0);
 }

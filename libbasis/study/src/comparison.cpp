@@ -8,7 +8,7 @@
 
 #include "basis/core/convolution.h"
 #include "basis/core/dense.h"
-#include "basis/core/quadtree.h"
+#include "basis/core/projection.h"
 #include "basis/study/haar.h"
 #include "basis/study/sh.h"
 

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "basis/core/projection.h"
 #include "basis/lighting/capture.h"
 #include "basis/study/reference.h"
 #include "basis/study/sh.h"
@@ -14,7 +15,8 @@ std::vector<TiltStudyRow> study_tilts(const Environment& environment, const Vec3
                                       const TiltStudyOptions& o) {
   const Frame record = Frame::from_normal(record_normal.normalized());
   const Grid grid =
-      capture(environment, nullptr, Vec3::Zero(), record, {.resolution = o.capture_resolution});
+      capture(environment, nullptr, Vec3::Zero(), record, {.resolution = o.capture_resolution})
+          .texels;
   const Quadtree radiance = project(grid, {.tolerance = o.capture_tolerance});
   std::vector<std::vector<double>> sh_light;
   for (int order : o.sh_orders)

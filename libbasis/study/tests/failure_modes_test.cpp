@@ -9,6 +9,7 @@
 #include "basis/brdf/brdf_table.h"
 #include "basis/core/dense.h"
 #include "basis/core/hemisphere.h"
+#include "basis/core/projection.h"
 #include "basis/study/comparison.h"
 #include "basis/study/haar.h"
 #include "basis/study/sh.h"

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "basis/brdf/brdf_table.h"
+#include "basis/core/projection.h"
 #include "basis/lighting/capture.h"
 #include "basis/study/reference.h"
 #include "basis/study/tilt_study.h"
@@ -26,8 +27,8 @@ using testing::TiltErrors;
 TiltErrors tilt_errors(const Environment& env, const Brdf& brdf, const BrdfTable& table,
                        double degrees) {
   const Frame record = Frame::from_normal(Vec3(0.3, -0.2, 0.93).normalized());
-  const Quadtree radiance =
-      project(capture(env, nullptr, Vec3::Zero(), record, {.resolution = 64}), {.tolerance = 0.01});
+  const Quadtree radiance = project(
+      capture(env, nullptr, Vec3::Zero(), record, {.resolution = 64}).texels, {.tolerance = 0.01});
   const auto samples = testing::map_samples(env);
   TiltErrors e;
   int count = 0;

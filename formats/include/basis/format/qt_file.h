@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "basis/brdf/brdf_table.h"
-#include "basis/core/quadtree.h"
+#include "basis/core/projection.h"
 #include "basis/core/tree_set.h"
 #include "basis/io/atomic_file.h"
 #include "basis/lighting/capture_set.h"

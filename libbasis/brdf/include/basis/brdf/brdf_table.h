@@ -8,6 +8,7 @@
 
 #include "basis/brdf/brdf.h"
 #include "basis/core/convolution.h"
+#include "basis/core/projection.h"
 #include "basis/core/supersample.h"
 #include "basis/core/task.h"
 #include "basis/core/tilt.h"

@@ -33,6 +33,9 @@ struct Grid {
   double mean(int group, int channel) const;
 };
 
+// True when no value is NaN or infinite.
+bool all_finite(std::span<const float> values);
+
 // True when n is a power of two in [2, 512], the resolutions a quadtree accepts.
 bool is_valid_resolution(int n);
 

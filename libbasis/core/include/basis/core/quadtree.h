@@ -77,64 +77,6 @@ struct Quadtree {
   int node_count() const { return int(nodes.size() / shape.stride()); }
 };
 
-// Where projection cuts the tree. A quadrant is refined while, for some channel c of group 0,
-// its error bound exceeds the tolerance: tolerance * |mean_c| (relative, the default; mean_c is
-// the channel's mean over the square) or tolerance itself (absolute). Stored error bounds are
-// group 0's.
-struct ProjectionOptions {
-  enum class Mode { relative, absolute };
-  double tolerance = 0.05;
-  Mode mode = Mode::relative;
-  int max_depth = 0;  // finest quadrant level, 1..log2(N); 0 means log2(N), the texels
-  // Also refine where another channel group's bound exceeds group_tolerance_scale times group
-  // 0's tolerance of the same channel (for groups that must stay accurate, such as the tilt
-  // derivatives, whose contribution is scaled by a small tilt).
-  bool cut_on_all_groups = false;
-  double group_tolerance_scale = 10;
-  // How the bound on |texel - average| is computed:
-  //   exact: from the smallest and largest texel under each cell, max(hi - avg, avg - lo);
-  //   paper: the paper's recursive bound max(child) - min(child) + max(child error), which
-  //          grows by a child's range at every level (looser, so trees are larger).
-  // Both bound every texel; the cut and the certified convolution bound use the chosen one.
-  enum class Bound { exact, paper };
-  Bound bound = Bound::exact;
-  // Added to each channel's mean before a relative tolerance is applied: energy that belongs
-  // to the function but lies outside the grid (a capture's directional lights).
-  Color extra_mean{0, 0, 0};
-};
-
-// Builds and cuts quadtrees (section 2.2): bottom-up averages and error bounds (exact, or the
-// paper's error = max(child average) - min(child average) + max(child error)), then a
-// depth-first cut at the tolerance. Reuse one projector to avoid reallocating scratch.
-class QuadtreeProjector {
- public:
-  // Projects a grid of resolution 2..512 (power of two) with 1 or 3 channels and finite texels.
-  // Throws std::invalid_argument otherwise.
-  Quadtree project(const Grid& grid, const ProjectionOptions& options = {});
-  // Same, writing into an existing tree so that its storage is reused.
-  void project(const Grid& grid, const ProjectionOptions& options, Quadtree& out);
-
- private:
-  struct PendingCell {
-    int level, x, y;
-    std::int32_t parent;  // node whose link to fill, -1 for the root
-    int quadrant;
-  };
-  std::vector<float> values_;  // levels 0 .. log2(N)-1, planar per group and channel
-  std::vector<float> errors_;  // the same levels, group 0 only
-  std::vector<float*> value_planes_;
-  std::vector<float*> error_planes_;
-  std::vector<float*> extreme_planes_;  // exact bounds: smallest and largest texel per cell
-  std::vector<PendingCell> pending_;
-};
-
-// Convenience wrapper around a temporary QuadtreeProjector.
-Quadtree project(const Grid& grid, const ProjectionOptions& options = {});
-
-// Absolute per-channel tolerances that options imply for a function with the given means.
-std::vector<float> absolute_tolerances(const ProjectionOptions& options,
-                                       std::span<const double> channel_means);
-
 // The piecewise-constant function of the tree as a dense grid of its resolution, all groups.
 Grid reconstruct(const QuadtreeView& tree);
 

@@ -10,7 +10,7 @@
 
 #include "basis/core/frame.h"
 #include "basis/core/grid.h"
-#include "basis/core/quadtree.h"
+#include "basis/core/projection.h"
 #include "basis/core/task.h"
 #include "basis/io/points_file.h"
 #include "basis/lighting/capture_set.h"
@@ -25,6 +25,10 @@ struct CaptureOptions {
   int bright_subsamples = 4;  // pieces per axis of each bright environment pixel
   std::uint64_t seed = 1;     // jitter; results depend on it and the point index only
   double ray_offset = 1e-4;   // origins move this far along the normal (scaled by the scene)
+  // Where the environment's compact lights (a sun) go: into the texels they fall in, like any
+  // bright pixel, or apart, as one DirectionalLight per light seen.
+  enum class CompactLights { splatted, apart };
+  CompactLights compact_lights = CompactLights::splatted;
 };
 
 // Counts of what a capture did, for reports and benchmarks.
@@ -33,27 +37,34 @@ struct CaptureStats {
   long long escaped = 0;
 };
 
-// The capture at `position` with local frame `frame`: for every stratum, a ray through its
-// jittered point; an escaping ray contributes the environment's smooth part averaged over the
-// stratum's footprint, a hit its surface's emission. Each bright environment pixel is split
-// into bright_subsamples^2 pieces whose energy goes exactly into the texel each falls in, if a
-// shadow ray towards the pixel's centre escapes. With `lights`, the pieces of the
-// environment's compact lights go there instead, one DirectionalLight per light seen (energy
-// of its visible pieces above the horizon, direction their energy-weighted mean). With no
-// scene nothing occludes. `index` decorrelates jitter between points. Deterministic.
-Grid capture(const Environment& environment, const RayScene* scene, const Vec3& position,
-             const Frame& frame, const CaptureOptions& options, std::uint64_t index = 0,
-             CaptureStats* stats = nullptr, std::vector<DirectionalLight>* lights = nullptr);
+// One capture: texel averages of L(w) V(x, w) over the cosine-weighted concentric map of the
+// point's frame, and the compact lights kept apart (empty unless CompactLights::apart).
+struct Capture {
+  Grid texels;
+  std::vector<DirectionalLight> lights;
+  CaptureStats stats;
+};
 
-// Adds each light's energy to the texel its direction falls in (as a light's pieces would be
-// splatted without `lights`): the grid of texel averages such a capture stands for.
+// The capture at `position` with local frame `frame`, in three phases:
+//   strata: for every stratum, a ray through its jittered point; an escaping ray contributes
+//           the environment's smooth part averaged over the stratum's footprint, a hit its
+//           surface's emission;
+//   bright pixels: each bright environment pixel is split into bright_subsamples^2 pieces, one
+//           shadow ray towards the pixel's centre;
+//   deposits: if that ray escapes, each piece above the horizon adds its energy exactly to the
+//           texel it falls in, or, for a compact light kept apart, to that light's energy and
+//           energy-weighted direction.
+// With no scene nothing occludes. `index` decorrelates jitter between points. Deterministic.
+// Throws std::overflow_error when the radiance overflows the float texels.
+Capture capture(const Environment& environment, const RayScene* scene, const Vec3& position,
+                const Frame& frame, const CaptureOptions& options, std::uint64_t index = 0);
+
+// Adds each light's energy to the texel its direction falls in (where its pieces go with
+// CompactLights::splatted): the grid of texel averages such a capture stands for.
 void splat_lights(std::span<const DirectionalLight> lights, Grid& grid);
 
 struct CaptureSetOptions {
-  CaptureOptions capture;
-  // Keep the environment's compact lights apart as directions (capture's `lights`) instead of
-  // splatting them into texels.
-  bool separate_lights = true;
+  CaptureOptions capture;  // compact_lights apart gives every capture a list of lights
   ProjectionOptions projection;
   // Called with each capture's texel grid before projection and the lights kept apart (from
   // worker threads), e.g. to write it out; may be empty.
@@ -73,6 +84,7 @@ struct CaptureTimings {
 
 // Captures every point in parallel and projects each capture into a tree. Deterministic for a
 // seed whatever the thread count; reports progress per point and stops (Cancelled) when asked.
+// Radiance that overflows float texels is a FileError naming the environment.
 CaptureSet capture_set(const Environment& environment, const RayScene* scene,
                        std::span<const SurfacePoint> points, const CaptureSetOptions& options,
                        const TaskControl& control = {}, CaptureTimings* timings = nullptr);

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <span>
+#include <string>
 #include <vector>
 
 #include "basis/core/color.h"
@@ -26,10 +27,15 @@ class Environment {
   // From a lat-long image (1 channel: grey; 3 or more: RGB, extra channels ignored), rotated by
   // `rotate_z_degrees` about z (a feature at azimuth phi moves to phi + rotation). Pixels whose
   // luminance exceeds 8 times the map's mean (at most 0.5 % of them) are bright: their excess
-  // over that level is kept apart and splatted exactly by captures.
-  explicit Environment(const Image& latlong, double rotate_z_degrees = 0);
-  // A constant environment.
+  // over that level is kept apart and splatted exactly by captures. `name` (the map's file)
+  // stands for the environment in errors.
+  explicit Environment(const Image& latlong, double rotate_z_degrees = 0,
+                       std::string name = "environment map");
+  // A constant environment. Throws std::invalid_argument unless every channel is finite, at
+  // least 0 and within the float range.
   static Environment constant(const Color& radiance);
+
+  const std::string& name() const { return name_; }
 
   int width() const { return width_; }
   int height() const { return height_; }
@@ -68,6 +74,20 @@ class Environment {
   // Solid angle of the map band between rows y0 and y1 (fractional) and columns spanning dx.
   double band_solid_angle(double y0, double y1, double dx) const;
 
+  // Visits the s x s sub-pixels of the pixels [column_begin, column_end) of `row`, sub-rows
+  // outermost: visit(column, w, solid_angle) with the sub-pixel's centre direction w (world,
+  // rotation applied) and its exact solid angle.
+  template <typename Visit>
+  void for_each_subpixel(int row, int column_begin, int column_end, int s, Visit&& visit) const {
+    for (int sy = 0; sy < s; ++sy) {
+      const double y0 = row + double(sy) / s, y1 = row + double(sy + 1) / s;
+      const double solid_angle = band_solid_angle(y0, y1, 1.0 / s);
+      for (int x = column_begin; x < column_end; ++x)
+        for (int sx = 0; sx < s; ++sx)
+          visit(x, direction(x + (sx + 0.5) / s, (y0 + y1) / 2), solid_angle);
+    }
+  }
+
   // Integral over the sphere of L(w) max(0, w . n) dw, directly over the map's pixels: the
   // irradiance on a surface of normal n, for references.
   Color irradiance(const Vec3& n, int subsamples = 4) const;
@@ -77,6 +97,7 @@ class Environment {
   Color pixel(int row, int column) const;
   void find_compact_lights(double level, std::span<const double> pixel_luminance);
 
+  std::string name_;
   int width_ = 0, height_ = 0;
   double rotation_ = 0;                  // radians
   std::vector<float> pixels_;            // RGB rows, bright excess included

@@ -1,0 +1,264 @@
+#include "basis/core/projection.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+
+namespace basis {
+
+namespace {
+
+int log2_of(int n) {
+  return std::countr_zero(unsigned(n));
+}
+
+// Level k-1 from level k (side `fine`): averages of 2 x 2 children, and for bounded planes the
+// paper's error bound max - min + max(child error) (child errors absent at the texel level).
+void build_level(const float* __restrict src, const float* __restrict src_error, int fine,
+                 float* __restrict dst, float* __restrict dst_error) {
+  const int coarse = fine / 2;
+  for (int y = 0; y < coarse; ++y) {
+    const float* __restrict r0 = src + std::size_t(2 * y) * fine;
+    const float* __restrict r1 = r0 + fine;
+    float* __restrict d = dst + std::size_t(y) * coarse;
+    for (int x = 0; x < coarse; ++x)
+      d[x] = ((r0[2 * x] + r0[2 * x + 1]) + (r1[2 * x] + r1[2 * x + 1])) * 0.25f;
+    if (!dst_error) continue;
+    float* __restrict de = dst_error + std::size_t(y) * coarse;
+    for (int x = 0; x < coarse; ++x) {
+      const float a = r0[2 * x], b = r0[2 * x + 1], c = r1[2 * x], e = r1[2 * x + 1];
+      de[x] = std::max(std::max(a, b), std::max(c, e)) - std::min(std::min(a, b), std::min(c, e));
+    }
+    if (!src_error) continue;
+    const float* __restrict e0 = src_error + std::size_t(2 * y) * fine;
+    const float* __restrict e1 = e0 + fine;
+    for (int x = 0; x < coarse; ++x)
+      de[x] += std::max(std::max(e0[2 * x], e0[2 * x + 1]), std::max(e1[2 * x], e1[2 * x + 1]));
+  }
+}
+
+// Level k-1 from level k for a bounded plane with exact bounds: averages, the smallest and
+// largest texel under each cell (from the children's, or the texels themselves at the finest
+// level where lo and hi are null), and the error max(hi - average, average - lo).
+void build_level_exact(const float* __restrict src, const float* src_lo, const float* src_hi,
+                       int fine, float* __restrict dst, float* __restrict dst_lo,
+                       float* __restrict dst_hi, float* __restrict dst_error) {
+  if (!src_lo) src_lo = src_hi = src;
+  const int coarse = fine / 2;
+  if (coarse <= 8) {  // short rows: one fused scalar loop beats four vector loops' set-up
+    for (int y = 0; y < coarse; ++y) {
+      const std::size_t r0 = std::size_t(2 * y) * fine, r1 = r0 + fine;
+      for (int x = 0; x < coarse; ++x) {
+        const std::size_t i = r0 + 2 * x, j = r1 + 2 * x, o = std::size_t(y) * coarse + x;
+        const float average = ((src[i] + src[i + 1]) + (src[j] + src[j + 1])) * 0.25f;
+        const float lo =
+            std::min(std::min(src_lo[i], src_lo[i + 1]), std::min(src_lo[j], src_lo[j + 1]));
+        const float hi =
+            std::max(std::max(src_hi[i], src_hi[i + 1]), std::max(src_hi[j], src_hi[j + 1]));
+        dst[o] = average;
+        dst_lo[o] = lo;
+        dst_hi[o] = hi;
+        dst_error[o] = std::max(hi - average, average - lo);
+      }
+    }
+    return;
+  }
+  // Long rows: one quantity per loop, so that each vectorises.
+  for (int y = 0; y < coarse; ++y) {
+    const std::size_t r0 = std::size_t(2 * y) * fine, r1 = r0 + fine, o = std::size_t(y) * coarse;
+    const float* __restrict a0 = src + r0;
+    const float* __restrict a1 = src + r1;
+    const float* l0 = src_lo + r0;
+    const float* l1 = src_lo + r1;
+    const float* h0 = src_hi + r0;
+    const float* h1 = src_hi + r1;
+    float* __restrict average = dst + o;
+    float* __restrict lo = dst_lo + o;
+    float* __restrict hi = dst_hi + o;
+    float* __restrict error = dst_error + o;
+    for (int x = 0; x < coarse; ++x)
+      average[x] = ((a0[2 * x] + a0[2 * x + 1]) + (a1[2 * x] + a1[2 * x + 1])) * 0.25f;
+    for (int x = 0; x < coarse; ++x)
+      lo[x] = std::min(std::min(l0[2 * x], l0[2 * x + 1]), std::min(l1[2 * x], l1[2 * x + 1]));
+    for (int x = 0; x < coarse; ++x)
+      hi[x] = std::max(std::max(h0[2 * x], h0[2 * x + 1]), std::max(h1[2 * x], h1[2 * x + 1]));
+    for (int x = 0; x < coarse; ++x)
+      error[x] = std::max(hi[x] - average[x], average[x] - lo[x]);
+  }
+}
+
+}  // namespace
+
+std::vector<float> absolute_tolerances(const ProjectionOptions& options,
+                                       std::span<const double> channel_means) {
+  if (!(options.tolerance >= 0) || !std::isfinite(options.tolerance))
+    throw std::invalid_argument("tolerance must be a finite number >= 0, got " +
+                                std::to_string(options.tolerance));
+  std::vector<float> tol;
+  for (double mean : channel_means)
+    tol.push_back(float(options.mode == ProjectionOptions::Mode::relative
+                            ? options.tolerance * std::abs(mean)
+                            : options.tolerance));
+  return tol;
+}
+
+Quadtree QuadtreeProjector::project(const Grid& grid, const ProjectionOptions& options) {
+  Quadtree tree;
+  project(grid, options, tree);
+  return tree;
+}
+
+void QuadtreeProjector::project(const Grid& grid, const ProjectionOptions& options, Quadtree& out) {
+  const int n = grid.resolution;
+  if (!is_valid_resolution(n))
+    throw std::invalid_argument("resolution must be a power of two from 2 to 512, got " +
+                                std::to_string(n));
+  if (grid.channels != 1 && grid.channels != 3)
+    throw std::invalid_argument("a quadtree holds 1 or 3 channels, got " +
+                                std::to_string(grid.channels));
+  if (grid.groups < 1 || grid.groups > 3)
+    throw std::invalid_argument("a quadtree holds 1 to 3 channel groups, got " +
+                                std::to_string(grid.groups));
+  if (grid.texels.size() != grid.plane_size() * grid.channels * grid.groups)
+    throw std::invalid_argument("grid storage does not match its size");
+  if (!all_finite(grid.texels)) throw std::invalid_argument("grid holds NaN or Inf texels");
+  const int levels = log2_of(n);  // texels are level `levels`
+  const int max_depth = options.max_depth == 0 ? levels : options.max_depth;
+  if (max_depth < 1 || max_depth > levels)
+    throw std::invalid_argument("max depth must be 1.." + std::to_string(levels) + ", got " +
+                                std::to_string(options.max_depth));
+
+  const int channels = grid.channels;
+  const int bounded = options.cut_on_all_groups ? channels * grid.groups : channels;
+  build_levels(grid, options, bounded);
+
+  // Tolerances: group 0's per channel; further groups' a multiple of their channel's.
+  std::vector<double> means(channels);
+  for (int c = 0; c < channels; ++c)
+    means[c] = values(grid, 0, c)[0] + options.extra_mean[std::size_t(c)];
+  std::vector<float> tolerances = absolute_tolerances(options, means);
+  for (int p = channels; p < bounded; ++p)
+    tolerances.push_back(float(options.group_tolerance_scale * tolerances[p % channels]));
+  cut(grid, tolerances, max_depth, out);
+}
+
+const float* QuadtreeProjector::values(const Grid& grid, int k, int p) const {
+  if (k == levels_) return grid.plane(p / grid.channels, p % grid.channels).data();
+  return value_planes_[std::size_t(k) * planes_ + p];
+}
+
+void QuadtreeProjector::build_levels(const Grid& grid, const ProjectionOptions& options,
+                                     int bounded) {
+  levels_ = log2_of(grid.resolution);
+  planes_ = grid.channels * grid.groups;
+  bounded_ = bounded;
+  const bool exact = options.bound == ProjectionOptions::Bound::exact;
+
+  // Scratch levels 0 .. levels-1, each plane contiguous: values for all planes, errors (and,
+  // for exact bounds, the extremes) for the bounded ones.
+  std::size_t total = 0;
+  for (int k = 0; k < levels_; ++k)
+    total += std::size_t(1) << (2 * k);
+  value_storage_.resize(total * planes_);
+  error_storage_.resize(total * bounded_ * (exact ? 3 : 1));
+  value_planes_.assign(std::size_t(levels_) * planes_, nullptr);
+  error_planes_.assign(std::size_t(levels_) * bounded_, nullptr);
+  extreme_planes_.assign(exact ? std::size_t(levels_) * bounded_ * 2 : 0, nullptr);
+  std::size_t offset = 0;
+  for (int k = 0; k < levels_; ++k) {
+    const std::size_t cells = std::size_t(1) << (2 * k);
+    for (int p = 0; p < planes_; ++p)
+      value_planes_[std::size_t(k) * planes_ + p] =
+          value_storage_.data() + (offset * planes_ + p * cells);
+    for (int p = 0; p < bounded_; ++p) {
+      error_planes_[std::size_t(k) * bounded_ + p] =
+          error_storage_.data() + (offset * bounded_ + p * cells);
+      if (!exact) continue;
+      float* lo = error_storage_.data() + total * bounded_ + 2 * (offset * bounded_ + p * cells);
+      extreme_planes_[2 * (std::size_t(k) * bounded_ + p)] = lo;
+      extreme_planes_[2 * (std::size_t(k) * bounded_ + p) + 1] = lo + cells;
+    }
+    offset += cells;
+  }
+
+  for (int k = levels_; k >= 1; --k)
+    for (int p = 0; p < planes_; ++p) {
+      const bool texels = k == levels_;
+      if (exact && p < bounded_)
+        build_level_exact(values(grid, k, p), texels ? nullptr : extremes(k, p, 0),
+                          texels ? nullptr : extremes(k, p, 1), 1 << k, scratch_values(k - 1, p),
+                          extremes(k - 1, p, 0), extremes(k - 1, p, 1), errors(k - 1, p));
+      else
+        build_level(values(grid, k, p), p < bounded_ && !texels ? errors(k, p) : nullptr, 1 << k,
+                    scratch_values(k - 1, p), p < bounded_ ? errors(k - 1, p) : nullptr);
+    }
+  // Averages and bounds of texels near the float range can overflow it.
+  if (!all_finite(value_storage_) || !all_finite(error_storage_))
+    throw std::overflow_error(
+        "texel values too large: their averages or error bounds overflow float (texels must "
+        "stay well below 3.4e38)");
+}
+
+void QuadtreeProjector::cut(const Grid& grid, std::span<const float> tolerances, int max_depth,
+                            Quadtree& out) {
+  const int channels = grid.channels;
+  out.shape = QuadtreeShape{grid.resolution, channels, grid.groups};
+  const std::size_t stride = out.shape.stride();
+  std::size_t count = 0;
+  pending_.clear();
+  pending_.push_back({0, 0, 0, -1, 0});
+  while (!pending_.empty()) {
+    const PendingCell cell = pending_.back();
+    pending_.pop_back();
+    const auto node = std::int32_t(count++);
+    if (count * stride > out.nodes.size()) {
+      out.nodes.resize(std::max<std::size_t>(2 * out.nodes.size(), 16 * stride));
+      out.errors.resize(out.nodes.size() / stride * channels);
+    }
+    Quad* quads = &out.nodes[node * stride];
+    Quad* errors_out = &out.errors[node * channels];
+    if (cell.parent >= 0) {
+      std::int32_t* parent_links =
+          reinterpret_cast<std::int32_t*>(&out.nodes[cell.parent * stride]);
+      std::memcpy(parent_links + cell.quadrant, &node, sizeof node);
+    }
+    // Quadrants are the 2 x 2 cells (2x .. 2x+1, 2y .. 2y+1) of the next level.
+    const int k = cell.level + 1, side = 1 << k;
+    const std::size_t row0 = std::size_t(2 * cell.y) * side + 2 * cell.x, row1 = row0 + side;
+    for (int p = 0; p < planes_; ++p) {
+      const float* src = values(grid, k, p);
+      std::memcpy(quads[1 + p].lane, src + row0, 2 * sizeof(float));
+      std::memcpy(quads[1 + p].lane + 2, src + row1, 2 * sizeof(float));
+    }
+    int refine = 0;
+    for (int p = 0; p < bounded_; ++p) {
+      Quad error{};
+      if (k < levels_) {
+        const float* src = errors(k, p);
+        std::memcpy(error.lane, src + row0, 2 * sizeof(float));
+        std::memcpy(error.lane + 2, src + row1, 2 * sizeof(float));
+      }
+      if (p < channels) errors_out[p] = error;  // stored bounds: group 0
+      for (int q = 0; q < 4; ++q)
+        refine |= int(error.lane[q] > tolerances[p]) << q;
+    }
+    if (k >= max_depth) refine = 0;
+    const std::int32_t no_children[4] = {0, 0, 0, 0};
+    std::memcpy(&quads[0], no_children, sizeof no_children);
+    // Push in reverse so that quadrant 0's subtree is emitted first.
+    for (int q = 3; q >= 0; --q)
+      if (refine >> q & 1)
+        pending_.push_back({k, 2 * cell.x + (q & 1), 2 * cell.y + (q >> 1), node, q});
+  }
+  out.nodes.resize(count * stride);
+  out.errors.resize(count * channels);
+}
+
+Quadtree project(const Grid& grid, const ProjectionOptions& options) {
+  return QuadtreeProjector().project(grid, options);
+}
+
+}  // namespace basis
