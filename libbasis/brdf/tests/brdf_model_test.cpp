@@ -7,7 +7,7 @@
 #include <random>
 
 #include "basis/brdf/brdf_spec.h"
-#include "basis/brdf/brdf_table.h"
+#include "basis/brdf/table_lookup.h"
 #include "basis/brdf/merl.h"
 #include "basis/core/projection.h"
 #include "support/brdf_reference.h"

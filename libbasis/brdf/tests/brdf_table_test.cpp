@@ -5,7 +5,7 @@
 #include <numbers>
 #include <vector>
 
-#include "basis/brdf/brdf_table.h"
+#include "basis/brdf/table_lookup.h"
 #include "basis/core/projection.h"
 #include "support/brdf_reference.h"
 

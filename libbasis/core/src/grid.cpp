@@ -30,6 +30,25 @@ double Grid::mean(int group, int channel) const {
   return sum / double(plane_size());
 }
 
+Grid downsample(const Grid& grid, int resolution) {
+  const int n = grid.resolution;
+  if (resolution > n || n % resolution != 0) throw std::invalid_argument("cannot downsample");
+  if (resolution == n) return grid;
+  const int f = n / resolution;
+  Grid out(resolution, grid.channels, grid.groups);
+  for (int g = 0; g < grid.groups; ++g)
+    for (int c = 0; c < grid.channels; ++c)
+      for (int y = 0; y < resolution; ++y)
+        for (int x = 0; x < resolution; ++x) {
+          double sum = 0;
+          for (int j = 0; j < f; ++j)
+            for (int i = 0; i < f; ++i)
+              sum += grid.at(g, c, x * f + i, y * f + j);
+          out.at(g, c, x, y) = float(sum / (f * f));
+        }
+  return out;
+}
+
 bool all_finite(std::span<const float> values) {
   // A float is Inf or NaN exactly when its magnitude bits exceed those of FLT_MAX; an unsigned
   // max-reduction vectorises.

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <numbers>
 
-#include "basis/brdf/brdf_table.h"
+#include "basis/brdf/table_lookup.h"
 #include "basis/core/hemisphere.h"
 #include "basis/core/projection.h"
 #include "basis/lighting/capture.h"

@@ -11,6 +11,7 @@
 #include "basis/core/projection.h"
 #include "basis/study/haar.h"
 #include "basis/study/sh.h"
+#include "basis/study/timing.h"
 
 namespace basis {
 
@@ -38,49 +39,6 @@ std::string format(const char* pattern, double a, double b = 0) {
 }
 
 }  // namespace
-
-double median_time_ns(const std::function<void()>& kernel, double seconds) {
-  // Calls per clock reading: one for slow kernels, more for fast ones (the clock costs ~20 ns).
-  auto now = [] { return std::chrono::steady_clock::now(); };
-  const auto probe = now();
-  kernel();
-  const double first = std::chrono::duration<double>(now() - probe).count();
-  const int batch = first > 1e-6 ? 1 : 64;
-  std::vector<double> runs;
-  for (int run = 0; run < 5; ++run) {
-    long long calls = 0;
-    const auto start = now();
-    double elapsed = 0;
-    do {
-      for (int k = 0; k < batch; ++k)
-        kernel();
-      calls += batch;
-      elapsed = std::chrono::duration<double>(now() - start).count();
-    } while (elapsed < seconds);
-    runs.push_back(elapsed * 1e9 / double(calls));
-  }
-  std::nth_element(runs.begin(), runs.begin() + 2, runs.end());
-  return runs[2];
-}
-
-Grid downsample(const Grid& grid, int resolution) {
-  const int n = grid.resolution;
-  if (resolution > n || n % resolution != 0) throw std::invalid_argument("cannot downsample");
-  if (resolution == n) return grid;
-  const int f = n / resolution;
-  Grid out(resolution, grid.channels, grid.groups);
-  for (int g = 0; g < grid.groups; ++g)
-    for (int c = 0; c < grid.channels; ++c)
-      for (int y = 0; y < resolution; ++y)
-        for (int x = 0; x < resolution; ++x) {
-          double sum = 0;
-          for (int j = 0; j < f; ++j)
-            for (int i = 0; i < f; ++i)
-              sum += grid.at(g, c, x * f + i, y * f + j);
-          out.at(g, c, x, y) = float(sum / (f * f));
-        }
-  return out;
-}
 
 std::vector<ComparisonRow> compare_methods(const ComparisonCase& c, const ComparisonOptions& o) {
   std::vector<ComparisonRow> rows;

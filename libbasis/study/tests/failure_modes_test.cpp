@@ -6,7 +6,7 @@
 
 #include <numbers>
 
-#include "basis/brdf/brdf_table.h"
+#include "basis/brdf/table_lookup.h"
 #include "basis/core/dense.h"
 #include "basis/core/hemisphere.h"
 #include "basis/core/projection.h"

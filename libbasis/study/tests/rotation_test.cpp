@@ -10,7 +10,7 @@
 #include <utility>
 #include <vector>
 
-#include "basis/brdf/brdf_table.h"
+#include "basis/brdf/table_lookup.h"
 #include "basis/core/projection.h"
 #include "basis/lighting/capture.h"
 #include "basis/study/reference.h"

@@ -7,11 +7,9 @@
 #include <vector>
 
 #include "basis/brdf/brdf.h"
-#include "basis/core/convolution.h"
 #include "basis/core/projection.h"
 #include "basis/core/supersample.h"
 #include "basis/core/task.h"
-#include "basis/core/tilt.h"
 #include "basis/core/tree_set.h"
 
 namespace basis {
@@ -97,26 +95,5 @@ struct TableTap {
 // The four entries around wo (unit, wo.z >= 0) in a parabolic grid of M x M entries.
 // Throws std::invalid_argument for wo below the horizon.
 std::array<TableTap, 4> table_taps(int wo_resolution, const Vec3& wo);
-
-// Reflected radiance Lo(wo) = integral of f(wi, wo) L(wi) cos(theta_i) dwi (pi included) for
-// a unit wo with wo.z >= 0 in the table's frame: the four entries around wo in the parabolic
-// grid convolved with the radiance tree, results interpolated bilinearly (section 2.4). The
-// bound interpolates the entries' bounds: it covers the trees against their texels, not the
-// BRDF's variation between entries. Throws std::invalid_argument for wo below the horizon.
-Convolution reflect(const BrdfTableView& table, const QuadtreeView& radiance, const Vec3& wo);
-
-// How reflect_tilted accounts for a tilt of the surface against the record's frame.
-enum class TiltCompensation {
-  none,            // the table at wo, as if the surface were not tilted
-  reparametrised,  // the table at R^-1 wo: the lobe follows the tilt (section 2.4)
-  compensated,     // reparametrised plus tilt.x * group 1 + tilt.y * group 2 (first order)
-};
-
-// Reflected radiance at a surface tilted by `tilt` against the frame `radiance` was recorded
-// in; wo_shading is in the tilted (shading) frame. The bound is that of the re-parametrised
-// term; the compensation itself is a first-order estimate. Compensation needs a table with
-// tilt derivatives (std::invalid_argument otherwise).
-Convolution reflect_tilted(const BrdfTableView& table, const QuadtreeView& radiance,
-                           const Vec3& wo_shading, const Tilt& tilt, TiltCompensation mode);
 
 }  // namespace basis

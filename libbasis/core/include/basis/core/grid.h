@@ -33,6 +33,10 @@ struct Grid {
   double mean(int group, int channel) const;
 };
 
+// The grid averaged down to a coarser resolution that divides its own (box filter of texel
+// averages, all groups). Throws std::invalid_argument otherwise.
+Grid downsample(const Grid& grid, int resolution);
+
 // True when no value is NaN or infinite.
 bool all_finite(std::span<const float> values);
 

@@ -4,7 +4,7 @@
 
 #include <optional>
 
-#include "basis/brdf/brdf_table.h"
+#include "basis/brdf/table_lookup.h"
 #include "basis/core/frame.h"
 #include "basis/lighting/capture_set.h"
 

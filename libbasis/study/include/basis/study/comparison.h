@@ -3,11 +3,10 @@
 // wavelets), each convolution timed and compared with a ground truth computed elsewhere.
 #pragma once
 
-#include <functional>
 #include <string>
 #include <vector>
 
-#include "basis/brdf/brdf.h"
+#include "basis/core/color.h"
 #include "basis/core/grid.h"
 
 namespace basis {
@@ -42,15 +41,8 @@ struct ComparisonOptions {
   double seconds_per_timing = 0.02;  // each timing repeats its kernel this long, five times
 };
 
-// Averages a grid down to a coarser power-of-two resolution (box filter of texel averages).
-Grid downsample(const Grid& grid, int resolution);
-
 // Every method at every parameter on one case.
 std::vector<ComparisonRow> compare_methods(const ComparisonCase& c,
                                            const ComparisonOptions& options);
-
-// Median over five runs of the time per call of `kernel`, each run repeating it for about
-// `seconds`, in nanoseconds.
-double median_time_ns(const std::function<void()>& kernel, double seconds);
 
 }  // namespace basis

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "basis/brdf/brdf_table.h"
+#include "basis/brdf/table_lookup.h"
 #include "basis/lighting/environment.h"
 
 namespace basis {

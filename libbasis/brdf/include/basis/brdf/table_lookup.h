@@ -1,0 +1,33 @@
+// Lookups in BRDF tables: the reflected radiance of a radiance tree towards any outgoing
+// direction, from the table entries around it, optionally for a surface tilted against the
+// frame the radiance was recorded in (rotation compensation).
+#pragma once
+
+#include "basis/brdf/brdf_table.h"
+#include "basis/core/convolution.h"
+#include "basis/core/tilt.h"
+
+namespace basis {
+
+// Reflected radiance Lo(wo) = integral of f(wi, wo) L(wi) cos(theta_i) dwi (pi included) for
+// a unit wo with wo.z >= 0 in the table's frame: the four entries around wo in the parabolic
+// grid convolved with the radiance tree, results interpolated bilinearly (section 2.4). The
+// bound interpolates the entries' bounds: it covers the trees against their texels, not the
+// BRDF's variation between entries. Throws std::invalid_argument for wo below the horizon.
+Convolution reflect(const BrdfTableView& table, const QuadtreeView& radiance, const Vec3& wo);
+
+// How reflect_tilted accounts for a tilt of the surface against the record's frame.
+enum class TiltCompensation {
+  none,            // the table at wo, as if the surface were not tilted
+  reparametrised,  // the table at R^-1 wo: the lobe follows the tilt (section 2.4)
+  compensated,     // reparametrised plus tilt.x * group 1 + tilt.y * group 2 (first order)
+};
+
+// Reflected radiance at a surface tilted by `tilt` against the frame `radiance` was recorded
+// in; wo_shading is in the tilted (shading) frame. The bound is that of the re-parametrised
+// term; the compensation itself is a first-order estimate. Compensation needs a table with
+// tilt derivatives (std::invalid_argument otherwise).
+Convolution reflect_tilted(const BrdfTableView& table, const QuadtreeView& radiance,
+                           const Vec3& wo_shading, const Tilt& tilt, TiltCompensation mode);
+
+}  // namespace basis
