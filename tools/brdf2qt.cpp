@@ -38,10 +38,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(2, 256));
   app.add_option(
       "--wi-res", wi_res,
-      "texels per side of each entry, a power of two up to 512 (default 128: "
-      "with the sun kept apart and qtconvolve --lights brdf, glossy reflections of a low "
-      "sun err by up to 1.3 % at 64, 3.3 % at 32; splatted or with --lights table, up "
-      "to 6 % at 64 and 5 % at 128; see README)");
+      "texels per side of each entry over the incoming direction, a power of two up to 512 "
+      "(default 128). Lookups multiply an entry's texels with a capture's, so the finer of the "
+      "two resolutions limits what a sharp lobe resolves: glossy reflections of a low sun erred "
+      "by up to 1.3 % with 64 and 3.3 % with 32 (see README)");
   app.add_option("--tolerance", tolerance,
                  "refine while a quadrant's error bound exceeds this fraction of the entry's "
                  "mean (default 0.05)")

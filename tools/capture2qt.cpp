@@ -4,52 +4,19 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <limits>
 #include <nlohmann/json.hpp>
 
 #include "basis/core/projection.h"
 #include "basis/core/version.h"
 #include "basis/format/qt_file.h"
+#include "basis/format/qt_recipe.h"
+#include "basis/io/image.h"
 #include "basis/io/image_file.h"
 #include "basis/lighting/capture.h"
 #include "basis/lighting/embree_scene.h"
 #include "basis/lighting/mesh.h"
 #include "cli.h"
-
-namespace {
-
-// The capture image's texels (square, power-of-two side, RGB) as a grid; row y holds texels
-// with v in [y/N, (y+1)/N). Refuses NaN, infinite and negative texels.
-basis::Grid image_to_grid(const basis::Image& image, const std::string& path) {
-  if (image.width != image.height || !basis::is_valid_resolution(image.width))
-    throw basis::FileError(path +
-                           ": a capture image is square with a power-of-two side from 2 "
-                           "to 512, got " +
-                           std::to_string(image.width) + " x " + std::to_string(image.height));
-  basis::Grid grid(image.width, 3);
-  long long bad = 0;
-  for (int y = 0; y < image.height; ++y)
-    for (int x = 0; x < image.width; ++x)
-      for (int c = 0; c < 3; ++c) {
-        const float v = image.at(x, y, image.channels >= 3 ? c : 0);
-        bad += !(v >= 0 && v < INFINITY);
-        grid.at(0, c, x, y) = v;
-      }
-  if (bad)
-    throw basis::FileError(path + ": " + std::to_string(bad) +
-                           " texel values are NaN, infinite or negative");
-  return grid;
-}
-
-basis::Image grid_to_image(const basis::Grid& grid) {
-  basis::Image image(grid.resolution, grid.resolution, 3);
-  for (int y = 0; y < grid.resolution; ++y)
-    for (int x = 0; x < grid.resolution; ++x)
-      for (int c = 0; c < 3; ++c)
-        image.at(x, y, c) = grid.at(0, c, x, y);
-  return image;
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app(
@@ -135,45 +102,53 @@ int main(int argc, char** argv) {
     if (strata * strata != spp)
       throw UsageError("--spp must be a square number (1, 4, 9, 16, ...), got " +
                        std::to_string(spp));
-    basis::ProjectionOptions projection;
-    projection.tolerance = tolerance;
-    if (absolute) projection.mode = basis::ProjectionOptions::Mode::absolute;
+    basis::CaptureRecipe recipe;
+    recipe.projection.tolerance = tolerance;
+    if (absolute) recipe.projection.mode = basis::ProjectionOptions::Mode::absolute;
     const auto start = std::chrono::steady_clock::now();
 
     if (!image_path.empty()) {
       if (!env_path.empty() || !env_constant.empty() || !scene_path.empty() || !at.empty() ||
           !points_path.empty() || sample)
         throw UsageError("--image compresses an existing capture: no light, scene or points");
-      const basis::Grid grid = image_to_grid(basis::read_image(image_path), image_path);
-      const basis::Quadtree tree = basis::project(grid, projection);
+      const basis::Grid grid = basis::image_to_grid(basis::read_image(image_path), image_path);
+      basis::Quadtree tree;
+      try {
+        tree = basis::project(grid, recipe.projection);
+      } catch (const std::overflow_error& e) {
+        throw basis::FileError(image_path + ": radiance too large: " + e.what());
+      }
       if (output.empty())
         output = std::filesystem::path(image_path).replace_extension(".qt").filename().string();
       const nlohmann::ordered_json parameters = {{"tolerance", tolerance},
                                                  {"mode", absolute ? "absolute" : "relative"}};
       basis::write_qt(
           output,
-          basis::encode_tree(tree.view(), projection,
+          basis::encode_tree(tree.view(), recipe.projection,
                              {"capture2qt", basis::kVersion, parameters.dump(), {image_path}}));
       if (!quiet)
-        std::printf("%s: one capture of %d x %d texels, %d nodes\n", output.c_str(), res, res,
-                    tree.node_count());
+        std::printf("%s: one capture of %d x %d texels, %d nodes\n", output.c_str(),
+                    grid.resolution, grid.resolution, tree.node_count());
       return;
     }
 
-    // Light.
+    // Light: a map (NaN and infinities refused unless asked for; negative texels, which real
+    // maps carry from their processing, read as 0 with a warning) or a constant.
     if (env_path.empty() == env_constant.empty())
       throw UsageError("give the light: --env FILE or --env-constant R,G,B");
-    const basis::Environment environment = [&] {
-      if (!env_constant.empty()) {
-        const auto c = basis::cli::parse_triple(env_constant, "--env-constant");
-        if (c[0] < 0 || c[1] < 0 || c[2] < 0)
-          throw UsageError("--env-constant must not be negative");
-        return basis::Environment::constant({c[0], c[1], c[2]});
-      }
-      return basis::Environment(basis::read_image(env_path), env_rotate);
-    }();
-    // NaN and infinities are refused unless asked for; negative texels, which real maps
-    // carry from their processing, are read as 0 with a warning.
+    if (!env_constant.empty()) {
+      const basis::Vec3 c = basis::cli::parse_triple(env_constant, "--env-constant");
+      if (c.minCoeff() < 0) throw UsageError("--env-constant must not be negative");
+      if (c.maxCoeff() > std::numeric_limits<float>::max())
+        throw UsageError("--env-constant " + env_constant +
+                         ": radiance above the largest float (3.4e38)");
+      recipe.constant = {c.x(), c.y(), c.z()};
+    }
+    recipe.environment = env_path;
+    recipe.rotate_z_degrees = env_rotate;
+    const basis::Environment environment =
+        env_path.empty() ? basis::Environment::constant(recipe.constant)
+                         : basis::Environment(basis::read_image(env_path), env_rotate, env_path);
     if (const basis::EnvironmentRepairs& bad = environment.repairs(); bad.total() > 0) {
       if (bad.nan + bad.infinite > 0 && !zero_invalid)
         throw basis::FileError(env_path + ": " + std::to_string(bad.nan) + " NaN and " +
@@ -187,7 +162,7 @@ int main(int argc, char** argv) {
                      env_path.c_str(), bad.nan, bad.infinite, bad.negative);
     }
 
-    // Scene.
+    // Scene and points.
     std::unique_ptr<basis::TriangleMesh> mesh;
     std::unique_ptr<basis::EmbreeScene> scene;
     if (!scene_path.empty()) {
@@ -197,17 +172,14 @@ int main(int argc, char** argv) {
                      scene_path.c_str(), mesh->dropped_degenerate);
       scene = std::make_unique<basis::EmbreeScene>(*mesh);
     }
-
-    // Points.
+    recipe.scene = scene_path;
     std::vector<basis::SurfacePoint> points;
     if (int(!at.empty()) + int(!points_path.empty()) + int(sample > 0) != 1)
       throw UsageError("give the points: --at X,Y,Z, --points FILE or --sample N");
     if (!at.empty()) {
-      const auto p = basis::cli::parse_triple(at, "--at");
-      const auto n = basis::cli::parse_triple(normal_text, "--normal");
-      const basis::Vec3 normal(n[0], n[1], n[2]);
+      const basis::Vec3 normal = basis::cli::parse_triple(normal_text, "--normal");
       if (!(normal.norm() > 1e-12)) throw UsageError("--normal must not be zero");
-      points.push_back({basis::Vec3(p[0], p[1], p[2]), normal.normalized()});
+      points.push_back({basis::cli::parse_triple(at, "--at"), normal.normalized()});
     } else if (!points_path.empty()) {
       points = basis::read_points(points_path);
     } else {
@@ -215,14 +187,15 @@ int main(int argc, char** argv) {
       points = basis::sample_surface(*mesh, std::size_t(sample), seed);
     }
 
+    recipe.options = {.resolution = res,
+                      .strata = strata,
+                      .seed = seed,
+                      .ray_offset = 1e-4 * std::max(1.0, mesh ? mesh->extent() : 1.0),
+                      .compact_lights = splat ? basis::CaptureOptions::CompactLights::splatted
+                                              : basis::CaptureOptions::CompactLights::apart};
     basis::CaptureSetOptions options;
-    options.capture.resolution = res;
-    options.capture.strata = strata;
-    options.capture.seed = seed;
-    options.capture.ray_offset = 1e-4 * std::max(1.0, mesh ? mesh->extent() : 1.0);
-    options.projection = projection;
-    options.capture.compact_lights = splat ? basis::CaptureOptions::CompactLights::splatted
-                                           : basis::CaptureOptions::CompactLights::apart;
+    options.capture = recipe.options;
+    options.projection = recipe.projection;
     if (!dump.empty()) {
       if (!std::filesystem::is_directory(dump))
         throw basis::FileError(dump + ": not a directory (--dump writes into an existing one)");
@@ -232,7 +205,8 @@ int main(int argc, char** argv) {
         std::snprintf(name, sizeof name, "capture_%05zu.exr", index);
         basis::Grid texels = grid;
         basis::splat_lights(lights, texels);
-        basis::write_image((std::filesystem::path(dump) / name).string(), grid_to_image(texels));
+        basis::write_image((std::filesystem::path(dump) / name).string(),
+                           basis::grid_to_image(texels));
       };
     }
     if (output.empty()) output = "captures.qt";
@@ -246,32 +220,20 @@ int main(int argc, char** argv) {
     progress.finish();
 
     std::vector<std::string> sources;
-    if (!env_path.empty()) sources.push_back(env_path);
-    if (!scene_path.empty()) sources.push_back(scene_path);
-    if (!points_path.empty()) sources.push_back(points_path);
-    const nlohmann::ordered_json parameters = {{"res", res},
-                                               {"spp", spp},
-                                               {"tolerance", tolerance},
-                                               {"mode", absolute ? "absolute" : "relative"},
-                                               {"seed", seed},
-                                               {"ray_offset", options.capture.ray_offset},
-                                               {"env", env_path},
-                                               {"env_rotate", env_rotate},
-                                               {"env_constant", env_constant},
-                                               {"scene", scene_path},
-                                               {"lights", splat ? "splatted" : "apart"}};
+    for (const std::string& source : {env_path, scene_path, points_path})
+      if (!source.empty()) sources.push_back(source);
     const auto bytes = basis::encode_capture_set(
-        set.view(), projection, {"capture2qt", basis::kVersion, parameters.dump(), sources});
+        set.view(), recipe.projection,
+        {"capture2qt", basis::kVersion, basis::capture_parameters(recipe), sources});
     basis::write_qt(output, bytes);
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (quiet) return;
-    const double projection_share =
-        timings.projection_seconds / std::max(1e-12, timings.capture_seconds);
+    const std::size_t nodes = set.trees.view().total_nodes();
     if (json) {
       std::cout << nlohmann::ordered_json{{"output", output},
                                           {"captures", set.positions.size()},
-                                          {"nodes", set.trees.view().total_nodes()},
+                                          {"nodes", nodes},
                                           {"environment_lights", environment.lights().size()},
                                           {"lights", set.lights.size()},
                                           {"bytes", bytes.size()},
@@ -287,9 +249,10 @@ int main(int argc, char** argv) {
         "%s: %zu captures of %d x %d texels (%d rays each), %zu nodes (%.1f per "
         "capture), %zu compact lights seen (%zu in the environment%s), %.2f MiB; %.2f M rays, "
         "projection %.1f %% of capture time, %.2f s\n",
-        output.c_str(), set.positions.size(), res, res, spp, set.trees.view().total_nodes(),
-        double(set.trees.view().total_nodes()) / double(set.positions.size()), set.lights.size(),
+        output.c_str(), set.positions.size(), res, res, spp, nodes,
+        double(nodes) / double(set.positions.size()), set.lights.size(),
         environment.lights().size(), splat ? ", splatted" : "", double(bytes.size()) / (1 << 20),
-        double(timings.stats.rays) * 1e-6, 100 * projection_share, seconds);
+        double(timings.stats.rays) * 1e-6,
+        100 * timings.projection_seconds / std::max(1e-12, timings.capture_seconds), seconds);
   });
 }

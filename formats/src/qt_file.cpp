@@ -124,7 +124,7 @@ std::pair<int, std::size_t> open_regular_file(const std::string& path) {
 
 QtFile::Buffer& QtFile::Buffer::operator=(Buffer&& other) noexcept {
   if (this != &other) {
-    this->~Buffer();
+    release();
     data_ = std::exchange(other.data_, nullptr);
     mapped_size_ = std::exchange(other.mapped_size_, 0);
     copy_ = std::move(other.copy_);
@@ -132,10 +132,11 @@ QtFile::Buffer& QtFile::Buffer::operator=(Buffer&& other) noexcept {
   return *this;
 }
 
-QtFile::Buffer::~Buffer() {
-  if (mapped_size_) ::munmap(data_, mapped_size_);
+void QtFile::Buffer::release() noexcept {
+  if (mapped_size_) ::munmap(const_cast<void*>(data_), mapped_size_);
   data_ = nullptr;
   mapped_size_ = 0;
+  copy_.reset();
 }
 
 QtFile::Buffer QtFile::Buffer::map_file(int fd, std::size_t size) {
@@ -155,6 +156,21 @@ QtFile::Buffer QtFile::Buffer::copy_of(std::span<const std::byte> bytes) {
   if (!bytes.empty()) std::memcpy(b.copy_.get(), bytes.data(), bytes.size());
   b.data_ = b.copy_.get();
   return b;
+}
+
+QtFile::Buffer QtFile::Buffer::borrow(std::span<const std::byte> bytes) {
+  Buffer b;
+  b.data_ = bytes.data();
+  return b;
+}
+
+void QtFile::verify_bytes(std::span<const std::byte> bytes, const std::string& name) {
+  QtFile file;
+  file.name_ = name;
+  if (bytes.size() > kQtMaxFileBytes) fail(name, "buffer exceeds the 2 GiB format limit");
+  file.size_ = bytes.size();
+  file.storage_ = Buffer::borrow(bytes);
+  file.verify();
 }
 
 QtFile QtFile::load(const std::string& path) {
@@ -408,7 +424,14 @@ std::vector<std::byte> finish(flatbuffers::FlatBufferBuilder& b, fb::Kind kind,
                                    captures, provenance);
   fb::FinishFileBuffer(b, root);
   const auto* data = reinterpret_cast<const std::byte*>(b.GetBufferPointer());
-  return {data, data + b.GetSize()};
+  std::vector<std::byte> bytes(data, data + b.GetSize());
+  try {
+    QtFile::verify_bytes(bytes, "the encoded file");
+  } catch (const FileError& e) {
+    throw std::invalid_argument(std::string("refusing to write what the reader refuses: ") +
+                                e.what());
+  }
+  return bytes;
 }
 
 void check_encodable(const TreeSetView& trees) {

@@ -1,5 +1,6 @@
 #include "basis/format/qt_recipe.h"
 
+#include <charconv>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -16,6 +17,38 @@ BrdfSpec table_brdf(const QtFile& table) {
   return parse_brdf_spec(spec, table.name() + " (stored spec)", folder);
 }
 
+namespace {
+
+// The shortest text that reads back as the same double.
+std::string shortest(double v) {
+  char text[32];
+  const auto end = std::to_chars(text, text + sizeof text, v).ptr;
+  return std::string(text, end);
+}
+
+}  // namespace
+
+std::string capture_parameters(const CaptureRecipe& r) {
+  const bool apart = r.options.compact_lights == CaptureOptions::CompactLights::apart;
+  const std::string constant =
+      r.environment.empty() ? shortest(r.constant[0]) + "," + shortest(r.constant[1]) + "," +
+                                  shortest(r.constant[2])
+                            : std::string();
+  const nlohmann::ordered_json j = {
+      {"res", r.options.resolution},
+      {"spp", r.options.strata * r.options.strata},
+      {"tolerance", r.projection.tolerance},
+      {"mode", r.projection.mode == ProjectionOptions::Mode::absolute ? "absolute" : "relative"},
+      {"seed", r.options.seed},
+      {"ray_offset", r.options.ray_offset},
+      {"env", r.environment},
+      {"env_rotate", r.rotate_z_degrees},
+      {"env_constant", constant},
+      {"scene", r.scene},
+      {"lights", apart ? "apart" : "splatted"}};
+  return j.dump();
+}
+
 CaptureRecipe capture_recipe(const QtFile& captures) {
   const Provenance p = captures.provenance();
   if (p.tool != "capture2qt")
@@ -27,6 +60,7 @@ CaptureRecipe capture_recipe(const QtFile& captures) {
     throw FileError(captures.name() + ": unreadable capture parameters in its provenance");
   }
   CaptureRecipe r;
+  r.projection = captures.projection();
   try {
     r.options.resolution = j.at("res").get<int>();
     const int spp = j.at("spp").get<int>();
@@ -35,6 +69,10 @@ CaptureRecipe capture_recipe(const QtFile& captures) {
       ++r.options.strata;
     r.options.seed = j.at("seed").get<std::uint64_t>();
     r.options.ray_offset = j.at("ray_offset").get<double>();
+    // Sets made before compact lights were kept apart splatted them.
+    r.options.compact_lights = j.value("lights", std::string("splatted")) == "apart"
+                                   ? CaptureOptions::CompactLights::apart
+                                   : CaptureOptions::CompactLights::splatted;
     r.rotate_z_degrees = j.at("env_rotate").get<double>();
     const std::string constant = j.at("env_constant").get<std::string>();
     if (!constant.empty()) {

@@ -104,6 +104,52 @@ std::string load_error(std::span<const std::byte> bytes) {
   return "";
 }
 
+// The bytes of a tree or a capture set written with the schema alone, without the library
+// writer's checks (as a damaged or foreign writer could).
+std::vector<std::byte> unchecked_file(const TreeSetView& trees, const CaptureSetView* captures) {
+  flatbuffers::FlatBufferBuilder b;
+  auto structs = [&]<typename F, typename T>(std::span<const T> v) {
+    return b.CreateVectorOfStructs(reinterpret_cast<const F*>(v.data()), v.size());
+  };
+  const QuadtreeShape& s = trees.shape();
+  const auto set = format::CreateTreeSet(
+      b, s.resolution, s.channels, s.groups, 0.05, format::ToleranceMode::Relative, 0,
+      structs.operator()<format::TreeExtent>(trees.extents()),
+      structs.operator()<format::Quad>(trees.nodes()),
+      structs.operator()<format::Quad>(trees.errors()));
+  flatbuffers::Offset<format::CaptureSet> info = 0;
+  if (captures)
+    info = format::CreateCaptureSet(
+        b, structs.operator()<format::Vec3>(captures->positions),
+        structs.operator()<format::Vec3>(captures->normals),
+        structs.operator()<format::Vec3>(captures->tangents),
+        structs.operator()<format::Light>(captures->lights),
+        b.CreateVector(captures->light_offsets.data(), captures->light_offsets.size()));
+  const auto root = format::CreateFile(b, captures ? 2 : 1,
+                                       captures ? format::Kind::CaptureSet : format::Kind::Tree,
+                                       format::Mapping::CosineConcentric, set, 0, info);
+  format::FinishFileBuffer(b, root);
+  const auto* data = reinterpret_cast<const std::byte*>(b.GetBufferPointer());
+  return {data, data + b.GetSize()};
+}
+
+// The loader's error for content written without checks, after checking that the library's
+// encoder refuses the same content for the same problem (and accepts what the loader accepts).
+template <typename Encode>
+std::string refused(const std::vector<std::byte>& unchecked, const Encode& encode) {
+  const std::string error = load_error(unchecked);
+  try {
+    encode();
+    EXPECT_EQ(error, "") << "the encoder wrote what the loader refuses";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(error, "") << "the encoder refused what the loader accepts: " << e.what();
+    const std::string problem = error.substr(error.find(": ") + 2);
+    EXPECT_NE(std::string(e.what()).find(problem), std::string::npos)
+        << e.what() << " against " << error;
+  }
+  return error;
+}
+
 TEST(QtFormat, TreeRoundTripKeepsBitsAndConvolution) {
   TempDir dir;
   const Quadtree tree = sample_tree(64, 3, 1);
@@ -194,9 +240,11 @@ TEST(QtFormat, CaptureSetRoundTrip) {
   EXPECT_TRUE(plain.captures().lights_of(1).empty());
 }
 
-TEST(QtFormat, BadCaptureLightsAreNamed) {
+TEST(QtFormat, BadCaptureLightsAreNamedAndNeverWritten) {
   auto error_of = [](const CaptureSet& c) {
-    return load_error(encode_capture_set(c.view(), {}, {}));
+    const CaptureSetView view = c.view();
+    return refused(unchecked_file(view.trees, &view),
+                   [&] { encode_capture_set(view, {}, {}); });
   };
   const CaptureSet good = sample_captures(6);
   ASSERT_EQ(error_of(good), "");
@@ -342,13 +390,17 @@ TEST(QtFormat, ForeignEmptyAndFutureFilesAreRejected) {
 }
 
 // Structurally valid buffers whose trees break the format's rules.
-TEST(QtFormat, SemanticViolationsAreNamed) {
+TEST(QtFormat, SemanticViolationsAreNamedAndNeverWritten) {
   auto with_links = [](Quadtree tree, int node, int q, std::int32_t child) {
     std::memcpy(reinterpret_cast<char*>(&tree.nodes[node * tree.shape.stride()]) + 4 * q, &child,
                 4);
     return tree;
   };
-  auto error_of = [](const Quadtree& tree) { return load_error(encode_tree(tree.view(), {}, {})); };
+  auto error_of = [](const Quadtree& tree) {
+    const TreeExtent extent{0, std::uint32_t(tree.node_count())};
+    const TreeSetView set(tree.shape, {&extent, 1}, tree.nodes, tree.errors);
+    return refused(unchecked_file(set, nullptr), [&] { encode_tree(tree.view(), {}, {}); });
+  };
   const Quadtree good = sample_tree(32, 1, 1);
   ASSERT_GT(good.node_count(), 3);
   ASSERT_EQ(error_of(good), "");

@@ -70,6 +70,11 @@ void write_inputs(const TempDir& dir) {
     env.at(5, 3, 1) = value;
     write_image(dir.file(name), env);
   }
+  // A map whose texels are all finite floats, too large to average without overflow.
+  Image huge(16, 16, 3);
+  for (float& p : huge.pixels)
+    p = 3e38f;
+  write_image(dir.file("huge.exr"), huge);
   std::filesystem::create_directories(dir.file("folder"));
   // A .qt file of a future format version, otherwise well formed.
   const QtFile ok = QtFile::load(dir.file("ok.qt"));
@@ -138,6 +143,12 @@ TEST(BadInputMatrix, CaptureInputs) {
     check(dir, "capture2qt", {{"--env", name, "--at", "0,0,0", "-o", "out.qt"}, 1, name});
   for (const std::string name : {"nan.exr", "inf.exr", "negative.exr"})
     check(dir, "capture2qt", {{"--image", name, "-o", "out.qt"}, 1, name});
+  // Radiance that overflows float once averaged into texels and trees: refused, never written
+  // as a file that readers refuse.
+  check(dir, "capture2qt", {{"--env", "huge.exr", "--at", "0,0,0", "-o", "out.qt"}, 1, "huge.exr"});
+  check(dir, "capture2qt", {{"--image", "huge.exr", "-o", "out.qt"}, 1, "huge.exr"});
+  check(dir, "capture2qt",
+        {{"--env-constant", "1e39,1,1", "--at", "0,0,0", "-o", "out.qt"}, 2, "--env-constant 1e39"});
   for (const std::string name :
        {"missing.obj", "empty.obj", "truncated.obj", "foreign.obj", "folder"})
     check(dir, "capture2qt",

@@ -197,9 +197,7 @@ void QuadtreeProjector::build_levels(const Grid& grid, const ProjectionOptions& 
     }
   // Averages and bounds of texels near the float range can overflow it.
   if (!all_finite(value_storage_) || !all_finite(error_storage_))
-    throw std::overflow_error(
-        "texel values too large: their averages or error bounds overflow float (texels must "
-        "stay well below 3.4e38)");
+    throw std::overflow_error("averages or error bounds of texels overflow float (largest 3.4e38)");
 }
 
 void QuadtreeProjector::cut(const Grid& grid, std::span<const float> tolerances, int max_depth,

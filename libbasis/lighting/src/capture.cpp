@@ -195,7 +195,7 @@ Capture capture(const Environment& environment, const RayScene* scene, const Vec
   deposit_bright_pieces(bright, shadow_hits, environment.lights().size(), out.texels, out.lights);
 
   if (!all_finite(out.texels.texels))
-    throw std::overflow_error("radiance too large: capture texels overflow float (3.4e38)");
+    throw std::overflow_error("texels overflow float (largest 3.4e38)");
   return out;
 }
 
@@ -238,7 +238,7 @@ CaptureSet capture_set(const Environment& environment, const RayScene* scene,
       try {
         c = capture(environment, scene, points[i].position, frames[i], options.capture, i);
       } catch (const std::overflow_error& e) {
-        throw FileError(environment.name() + ": " + e.what());
+        throw FileError(environment.name() + ": radiance too large for captures: " + e.what());
       }
       lights[i] = std::move(c.lights);
       const auto t1 = std::chrono::steady_clock::now();
@@ -251,7 +251,7 @@ CaptureSet capture_set(const Environment& environment, const RayScene* scene,
       try {
         projector.project(c.texels, projection, trees[i]);
       } catch (const std::overflow_error& e) {
-        throw FileError(environment.name() + ": radiance too large: " + e.what());
+        throw FileError(environment.name() + ": radiance too large for captures: " + e.what());
       }
       const auto t2 = std::chrono::steady_clock::now();
       if (options.on_grid) options.on_grid(i, c.texels, lights[i]);

@@ -131,6 +131,13 @@ void Environment::find_compact_lights(double level, std::span<const double> pixe
   }
 }
 
+const Environment::CompactLight* Environment::brightest_light() const {
+  const auto brightest = std::max_element(lights_.begin(), lights_.end(), [](auto& a, auto& b) {
+    return luminance(a.energy) < luminance(b.energy);
+  });
+  return brightest == lights_.end() ? nullptr : &*brightest;
+}
+
 Environment Environment::constant(const Color& radiance) {
   for (const double c : radiance)
     if (!(c >= 0 && c <= std::numeric_limits<float>::max()))

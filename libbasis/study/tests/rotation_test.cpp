@@ -1,4 +1,4 @@
-// Rotation compensation (DESIGN section 5): shading a surface tilted against the frame its
+// Rotation compensation: shading a surface tilted against the frame its
 // radiance was captured in, compared with the exactly rotated integral computed here directly
 // over the environment map's pixels.
 #include <gtest/gtest.h>

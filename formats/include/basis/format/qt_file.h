@@ -44,6 +44,10 @@ class QtFile {
   // Verifies bytes held in memory (copied into aligned storage); `name` prefixes errors.
   static QtFile from_bytes(std::span<const std::byte> bytes, const std::string& name);
 
+  // Verifies bytes where they lie (16-byte aligned, as encoders return them) with every check
+  // load() makes; throws FileError with one line "NAME: problem".
+  static void verify_bytes(std::span<const std::byte> bytes, const std::string& name);
+
   QtFile(QtFile&&) = default;
   QtFile& operator=(QtFile&&) = default;
 
@@ -76,13 +80,15 @@ class QtFile {
     Buffer() = default;
     Buffer(Buffer&& other) noexcept { *this = std::move(other); }
     Buffer& operator=(Buffer&& other) noexcept;
-    ~Buffer();
+    ~Buffer() { release(); }
     static Buffer map_file(int fd, std::size_t size);
     static Buffer copy_of(std::span<const std::byte> bytes);
+    static Buffer borrow(std::span<const std::byte> bytes);  // not owned: bytes must outlive it
     const void* data() const { return data_; }
 
    private:
-    void* data_ = nullptr;
+    void release() noexcept;
+    const void* data_ = nullptr;
     std::size_t mapped_size_ = 0;  // nonzero for a memory map
     std::unique_ptr<Quad[]> copy_;
   };
@@ -100,7 +106,10 @@ class QtFile {
   CaptureSetView captures_;
 };
 
-// Complete .qt buffers. Throw std::invalid_argument for inconsistent input.
+// Complete .qt buffers. Each is verified with the loader's checks before it is returned, so that
+// no file is written that load() would refuse. Throw std::invalid_argument for inconsistent
+// input and for content the loader refuses (NaN or infinite values, negative bounds, links out
+// of order, frames that are not unit vectors, lights below the horizon, ...).
 std::vector<std::byte> encode_tree(const QuadtreeView& tree, const ProjectionOptions& projection,
                                    const Provenance& provenance);
 std::vector<std::byte> encode_brdf_table(const BrdfTableView& table, const std::string& model,

@@ -1,5 +1,6 @@
-// How a .qt file was made, read back from its provenance, so that its inputs can be rebuilt at
-// full resolution: the BRDF a table tabulates and the capture parameters of a capture set.
+// How a .qt file was made, written into its provenance and read back from it, so that its
+// inputs can be rebuilt at full resolution: the BRDF a table tabulates and the light, scene and
+// parameters of a capture set.
 #pragma once
 
 #include <optional>
@@ -15,16 +16,22 @@ namespace basis {
 // are found relative to the spec's original folder). Throws FileError.
 BrdfSpec table_brdf(const QtFile& table);
 
-// What capture2qt recorded about a capture set: light, scene and capture options.
+// What a capture set was made from: light, scene, capture and projection options.
 struct CaptureRecipe {
   std::string environment;  // map path, empty for a constant light
   Color constant{0, 0, 0};
   double rotate_z_degrees = 0;
   std::string scene;  // OBJ path, empty when nothing occludes
   CaptureOptions options;
+  ProjectionOptions projection;
 };
 
+// The recipe as the parameters (JSON text) of a capture set's provenance, which
+// capture_recipe reads back.
+std::string capture_parameters(const CaptureRecipe& recipe);
+
 // The recipe of a capture set made by capture2qt; throws FileError if the file does not say.
+// The projection options are those its trees were cut with.
 CaptureRecipe capture_recipe(const QtFile& captures);
 
 }  // namespace basis

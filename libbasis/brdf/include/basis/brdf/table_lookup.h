@@ -20,7 +20,8 @@ Convolution reflect(const BrdfTableView& table, const QuadtreeView& radiance, co
 enum class TiltCompensation {
   none,            // the table at wo, as if the surface were not tilted
   reparametrised,  // the table at R^-1 wo: the lobe follows the tilt (section 2.4)
-  compensated,     // reparametrised plus tilt.x * group 1 + tilt.y * group 2 (first order)
+  compensated,     // reparametrised plus tilt.x * conv(tilt group 0) + tilt.y * conv(tilt
+                   // group 1), the first-order tilt derivatives (tilt_derivative.h)
 };
 
 // Reflected radiance at a surface tilted by `tilt` against the frame `radiance` was recorded

@@ -10,10 +10,14 @@
 
 namespace basis {
 
-// Result of a convolution, per channel. A single-channel result is repeated in all three lanes.
+// A value with its certified bound, per channel; a single-channel result is repeated in all
+// three lanes. convolve() returns the integral over [0,1]^2 of a(u,v) b(u,v) du dv (group 0 of
+// both trees); lookups built on it (reflect, shade, capture_product) return hemisphere
+// integrals, pi times that. The bound is on |value - the same integral of the trees'
+// full-resolution grids|.
 struct Convolution {
-  Rgb value{};  // integral over [0,1]^2 of a(u,v) b(u,v) du dv (group 0 of both trees)
-  Rgb bound{};  // |value - integral of the product of the trees' full-resolution grids| <= bound
+  Rgb value{};
+  Rgb bound{};
 };
 
 // Channel counts must be equal or one of them 1 (a grey function against RGB). Trees of

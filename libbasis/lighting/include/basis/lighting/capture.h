@@ -1,4 +1,4 @@
-// Hemisphere captures (DESIGN section 6): incident radiance L(w) V(x, w) at a point, as texel
+// Hemisphere captures: incident radiance L(w) V(x, w) at a point, as texel
 // averages over the cosine-weighted concentric map of the point's frame, ready for projection.
 #pragma once
 

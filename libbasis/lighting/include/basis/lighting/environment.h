@@ -69,6 +69,8 @@ class Environment {
     Color energy;    // integral of the excess radiance over its pixels' solid angle
   };
   std::span<const CompactLight> lights() const { return lights_; }
+  // The compact light of the most luminous energy (the sun), null when there is none.
+  const CompactLight* brightest_light() const;
   // World direction of map position (column x, row y) in pixels, rotation applied.
   Vec3 direction(double x, double y) const;
   // Solid angle of the map band between rows y0 and y1 (fractional) and columns spanning dx.

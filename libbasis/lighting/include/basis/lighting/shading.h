@@ -1,4 +1,4 @@
-// Shading capture points with a BRDF table (DESIGN sections 1 and 5): reflected radiance at
+// Shading capture points with a BRDF table: reflected radiance at
 // every capture of a set for an outgoing direction, optionally for a tilted surface normal.
 #pragma once
 

@@ -1,0 +1,62 @@
+// Convolving two loaded .qt files: what the pair means, checked once, and its result at every
+// point. A BRDF table with a capture set (either order) gives the reflected radiance at every
+// capture, a table with a single tree the same for that tree, two trees or capture sets their
+// integral point by point.
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include "basis/brdf/brdf_spec.h"
+#include "basis/format/qt_file.h"
+#include "basis/lighting/shading.h"
+
+namespace basis {
+
+// Where f comes from for the directional lights of a capture set shaded by a table.
+enum class LightBrdf {
+  spec,   // the BRDF the table's stored spec describes, at the light's exact direction
+  table,  // the table's entries, at the texel the light falls in
+};
+
+class FileConvolution {
+ public:
+  // Checks the pair: two BRDF tables, or two capture sets of different points, are a FileError
+  // naming b. With LightBrdf::spec and a capture set that holds lights, the table's spec is
+  // parsed; if that fails (a measured BRDF's data file is missing) the table's entries are used
+  // and warning() says why. The files must outlive this object.
+  FileConvolution(const QtFile& a, const QtFile& b, const ShadingOptions& shading,
+                  LightBrdf lights = LightBrdf::spec);
+  FileConvolution(const FileConvolution&) = delete;
+  FileConvolution& operator=(const FileConvolution&) = delete;
+
+  // Number of results: one per capture (or tree) of the larger file, or of the one a table
+  // shades.
+  std::size_t size() const { return size_; }
+  // Result k: the reflected radiance (pi included) with its certified bound, or the hemisphere
+  // integral of A B cos of point k.
+  Convolution operator()(std::size_t k) const;
+
+  // The BRDF table, when one of the files is a table; the file it shades.
+  const QtFile* table() const { return table_; }
+  const QtFile& shaded() const { return *other_; }
+  // Tree-by-tree convolutions each result costs: 4 table entries per lookup, 8 with
+  // compensated tilts, 1 for products.
+  int convolutions_per_result() const;
+  // The BRDF the lights are shaded with, when it comes from the table's spec.
+  const Brdf* light_brdf() const { return shading_.light_brdf; }
+  // Why the lights fall back to the table's entries; empty when they do not.
+  const std::string& warning() const { return warning_; }
+
+ private:
+  const QtFile& a_;
+  const QtFile& b_;
+  const QtFile* table_ = nullptr;
+  const QtFile* other_ = nullptr;
+  ShadingOptions shading_;
+  std::optional<BrdfSpec> light_spec_;
+  std::string warning_;
+  std::size_t size_ = 0;
+};
+
+}  // namespace basis

@@ -1,0 +1,92 @@
+#include "basis/study/lookup_reference.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#include "basis/brdf/brdf_table.h"
+#include "basis/core/dense.h"
+#include "basis/core/hemisphere.h"
+#include "basis/io/image_file.h"
+#include "basis/lighting/capture.h"
+#include "basis/lighting/embree_scene.h"
+#include "basis/lighting/mesh.h"
+
+namespace basis {
+
+CaptureInputs open_capture_inputs(const CaptureRecipe& recipe) {
+  CaptureInputs inputs{recipe.environment.empty()
+                           ? Environment::constant(recipe.constant)
+                           : Environment(read_image(recipe.environment), recipe.rotate_z_degrees,
+                                         recipe.environment),
+                       nullptr};
+  if (!recipe.scene.empty()) inputs.scene = std::make_unique<EmbreeScene>(read_obj(recipe.scene));
+  return inputs;
+}
+
+std::vector<Rgb> reference_lookups(const QtFile& table_file, const QtFile& captures_file,
+                                   const Vec3& wo, const Brdf* light_brdf,
+                                   const TaskControl& control) {
+  const BrdfTableView table = table_file.brdf_table();
+  const CaptureSetView captures = captures_file.captures();
+  const BrdfSpec spec = table_brdf(table_file);
+  const CaptureRecipe recipe = capture_recipe(captures_file);
+  if (recipe.options.resolution != table.trees.shape().resolution)
+    throw std::invalid_argument("a reference needs the table and the captures at one resolution (" +
+                                std::to_string(table.trees.shape().resolution) + " and " +
+                                std::to_string(recipe.options.resolution) + ")");
+  const CaptureInputs inputs = open_capture_inputs(recipe);
+  // The four entries around wo, as the lookup weighs them.
+  BrdfTableOptions options;
+  options.wo_resolution = table.wo_resolution;
+  options.wi_resolution = table.trees.shape().resolution;
+  std::vector<std::pair<double, Grid>> entries;
+  for (const TableTap& tap : table_taps(table.wo_resolution, wo))
+    entries.emplace_back(tap.weight,
+                         tabulate_entry(spec.brdf, table_outgoing(tap.i, tap.j, table.wo_resolution),
+                                        options));
+  // The capture's own record of whether it kept its lights apart.
+  CaptureOptions capture_options = recipe.options;
+  capture_options.compact_lights = captures.light_offsets.empty()
+                                       ? CaptureOptions::CompactLights::splatted
+                                       : CaptureOptions::CompactLights::apart;
+  std::vector<Rgb> out(captures.size());
+  std::atomic<std::size_t> done{0};
+  tbb::parallel_for(std::size_t(0), captures.size(), [&](std::size_t k) {
+    control.check();
+    const Capture c = capture(inputs.environment, inputs.scene.get(), captures.positions[k],
+                              captures.frame(k), capture_options, k);
+    Rgb sum{0, 0, 0};
+    for (const auto& [weight, entry] : entries) {
+      const Rgb d = dense_convolve_naive(entry, c.texels);
+      for (int ch = 0; ch < 3; ++ch)
+        sum[ch] += float(weight * std::numbers::pi * d[ch]);
+    }
+    // Directional lights: f at the light (the BRDF itself, or the entries' texels there).
+    for (const DirectionalLight& light : c.lights) {
+      const Vec3& wi = light.direction;
+      Color f{0, 0, 0};
+      if (light_brdf) {
+        f = evaluate(*light_brdf, wi, wo);
+      } else {
+        for (const auto& [weight, entry] : entries) {
+          const auto [x, y] = cosine_hemisphere_texel(wi, entry.resolution);
+          for (int ch = 0; ch < 3; ++ch)
+            f[ch] += weight * entry.at(0, std::min(ch, entry.channels - 1), x, y);
+        }
+      }
+      for (int ch = 0; ch < 3; ++ch)
+        sum[ch] += float(f[ch] * light.energy[ch] * wi.z());
+    }
+    out[k] = sum;
+    control.report(++done, captures.size());
+  });
+  return out;
+}
+
+}  // namespace basis
