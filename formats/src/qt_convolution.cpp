@@ -20,9 +20,7 @@ CaptureSetView as_captures(const QtFile& f) {
 FileConvolution::FileConvolution(const QtFile& a, const QtFile& b, const ShadingOptions& shading,
                                  LightBrdf lights)
     : a_(a), b_(b), shading_(shading) {
-  table_ = a.kind() == QtKind::brdf_table   ? &a
-           : b.kind() == QtKind::brdf_table ? &b
-                                            : nullptr;
+  table_ = a.kind() == QtKind::brdf_table ? &a : b.kind() == QtKind::brdf_table ? &b : nullptr;
   other_ = table_ == &a ? &b : &a;
   if (table_ && other_->kind() == QtKind::brdf_table)
     throw FileError(b.name() + ": two BRDF tables cannot be convolved; give a table and captures");

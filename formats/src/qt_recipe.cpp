@@ -31,9 +31,9 @@ std::string shortest(double v) {
 std::string capture_parameters(const CaptureRecipe& r) {
   const bool apart = r.options.compact_lights == CaptureOptions::CompactLights::apart;
   const std::string constant =
-      r.environment.empty() ? shortest(r.constant[0]) + "," + shortest(r.constant[1]) + "," +
-                                  shortest(r.constant[2])
-                            : std::string();
+      r.environment.empty()
+          ? shortest(r.constant[0]) + "," + shortest(r.constant[1]) + "," + shortest(r.constant[2])
+          : std::string();
   const nlohmann::ordered_json j = {
       {"res", r.options.resolution},
       {"spp", r.options.strata * r.options.strata},

@@ -112,11 +112,11 @@ std::vector<std::byte> unchecked_file(const TreeSetView& trees, const CaptureSet
     return b.CreateVectorOfStructs(reinterpret_cast<const F*>(v.data()), v.size());
   };
   const QuadtreeShape& s = trees.shape();
-  const auto set = format::CreateTreeSet(
-      b, s.resolution, s.channels, s.groups, 0.05, format::ToleranceMode::Relative, 0,
-      structs.operator()<format::TreeExtent>(trees.extents()),
-      structs.operator()<format::Quad>(trees.nodes()),
-      structs.operator()<format::Quad>(trees.errors()));
+  const auto set = format::CreateTreeSet(b, s.resolution, s.channels, s.groups, 0.05,
+                                         format::ToleranceMode::Relative, 0,
+                                         structs.operator()<format::TreeExtent>(trees.extents()),
+                                         structs.operator()<format::Quad>(trees.nodes()),
+                                         structs.operator()<format::Quad>(trees.errors()));
   flatbuffers::Offset<format::CaptureSet> info = 0;
   if (captures)
     info = format::CreateCaptureSet(
@@ -243,8 +243,7 @@ TEST(QtFormat, CaptureSetRoundTrip) {
 TEST(QtFormat, BadCaptureLightsAreNamedAndNeverWritten) {
   auto error_of = [](const CaptureSet& c) {
     const CaptureSetView view = c.view();
-    return refused(unchecked_file(view.trees, &view),
-                   [&] { encode_capture_set(view, {}, {}); });
+    return refused(unchecked_file(view.trees, &view), [&] { encode_capture_set(view, {}, {}); });
   };
   const CaptureSet good = sample_captures(6);
   ASSERT_EQ(error_of(good), "");

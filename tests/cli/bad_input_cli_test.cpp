@@ -147,8 +147,9 @@ TEST(BadInputMatrix, CaptureInputs) {
   // as a file that readers refuse.
   check(dir, "capture2qt", {{"--env", "huge.exr", "--at", "0,0,0", "-o", "out.qt"}, 1, "huge.exr"});
   check(dir, "capture2qt", {{"--image", "huge.exr", "-o", "out.qt"}, 1, "huge.exr"});
-  check(dir, "capture2qt",
-        {{"--env-constant", "1e39,1,1", "--at", "0,0,0", "-o", "out.qt"}, 2, "--env-constant 1e39"});
+  check(
+      dir, "capture2qt",
+      {{"--env-constant", "1e39,1,1", "--at", "0,0,0", "-o", "out.qt"}, 2, "--env-constant 1e39"});
   for (const std::string name :
        {"missing.obj", "empty.obj", "truncated.obj", "foreign.obj", "folder"})
     check(dir, "capture2qt",

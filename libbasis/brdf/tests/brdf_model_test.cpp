@@ -7,8 +7,8 @@
 #include <random>
 
 #include "basis/brdf/brdf_spec.h"
-#include "basis/brdf/table_lookup.h"
 #include "basis/brdf/merl.h"
+#include "basis/brdf/table_lookup.h"
 #include "basis/core/projection.h"
 #include "support/brdf_reference.h"
 #include "support/temp_dir.h"

@@ -20,8 +20,8 @@
 #include <vector>
 
 #include "basis/brdf/brdf_spec.h"
-#include "basis/brdf/table_lookup.h"
 #include "basis/brdf/rgl.h"
+#include "basis/brdf/table_lookup.h"
 #include "basis/core/projection.h"
 #include "support/temp_dir.h"
 

@@ -13,24 +13,16 @@ std::int32_t QuadtreeView::child(int node, int quadrant) const {
 Grid reconstruct(const QuadtreeView& tree) {
   const QuadtreeShape& s = tree.shape();
   Grid grid(s.resolution, s.channels, s.groups);
-  auto fill = [&](auto&& self, int node, int x0, int y0, int size) -> void {
-    const int half = size / 2;
-    for (int q = 0; q < 4; ++q) {
-      const int qx = x0 + (q & 1) * half, qy = y0 + (q >> 1) * half;
-      if (const int child = tree.child(node, q)) {
-        self(self, child, qx, qy, half);
-        continue;
+  for_each_leaf(tree, [&](int node, int q, int level, int x, int y) {
+    const int size = s.resolution >> level, x0 = x * size, y0 = y * size;
+    for (int g = 0; g < s.groups; ++g)
+      for (int c = 0; c < s.channels; ++c) {
+        const float v = tree.value(node, g, c, q);
+        for (int ty = y0; ty < y0 + size; ++ty)
+          for (int tx = x0; tx < x0 + size; ++tx)
+            grid.at(g, c, tx, ty) = v;
       }
-      for (int g = 0; g < s.groups; ++g)
-        for (int c = 0; c < s.channels; ++c) {
-          const float v = tree.value(node, g, c, q);
-          for (int y = qy; y < qy + half; ++y)
-            for (int x = qx; x < qx + half; ++x)
-              grid.at(g, c, x, y) = v;
-        }
-    }
-  };
-  fill(fill, 0, 0, 0, s.resolution);
+  });
   return grid;
 }
 

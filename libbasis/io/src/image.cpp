@@ -16,7 +16,8 @@ Image::Image(int width_, int height_, int channels_)
 
 Grid image_to_grid(const Image& image, const std::string& name) {
   if (image.width != image.height || !is_valid_resolution(image.width))
-    throw FileError(name + ": a capture image is square with a power-of-two side from 2 to 512, got " +
+    throw FileError(name +
+                    ": a capture image is square with a power-of-two side from 2 to 512, got " +
                     std::to_string(image.width) + " x " + std::to_string(image.height));
   Grid grid(image.width, 3);
   long long bad = 0;

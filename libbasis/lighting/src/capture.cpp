@@ -1,4 +1,5 @@
 #include "basis/lighting/capture.h"
+#include "basis/core/random.h"
 
 #include <tbb/parallel_for.h>
 
@@ -17,18 +18,6 @@
 namespace basis {
 
 namespace {
-
-// SplitMix64: a counter-based generator, so jitter depends only on (seed, point, sample).
-std::uint64_t mix(std::uint64_t x) {
-  x += 0x9e3779b97f4a7c15ull;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
-  return x ^ (x >> 31);
-}
-
-double unit(std::uint64_t x) {
-  return double(mix(x) >> 11) * 0x1.0p-53;
-}
 
 // Phase 1: texel averages from the strata's rays. A ray that escapes takes the smooth part of
 // the environment averaged over its stratum, from m_u x m_v jittered points with about one per
@@ -51,7 +40,7 @@ void trace_strata(const Environment& environment, const RayScene* scene, const V
       for (int s = 0; s < k * k; ++s, ++r) {
         const std::uint64_t id = stream + (std::uint64_t(y) * n + x) * k * k + s;
         const Vec2 corner = stratum_corner(x, y, s);
-        const Vec2 uv = corner + Vec2(unit(2 * id), unit(2 * id + 1)) * stratum;
+        const Vec2 uv = corner + Vec2(unit_random(2 * id), unit_random(2 * id + 1)) * stratum;
         rays[r] = {origin, frame.to_world(square_to_cosine_hemisphere(uv)).normalized()};
       }
     if (scene) {
@@ -84,9 +73,10 @@ void trace_strata(const Environment& environment, const RayScene* scene, const V
         Color average{0, 0, 0};
         for (int b = 0; b < mv; ++b)
           for (int a = 0; a < mu; ++a) {
-            const std::uint64_t sub = mix(id) + std::uint64_t(b * mu + a);
-            const Vec2 uv =
-                corner + Vec2((a + unit(2 * sub)) / mu, (b + unit(2 * sub + 1)) / mv) * stratum;
+            const std::uint64_t sub = splitmix64(id) + std::uint64_t(b * mu + a);
+            const Vec2 uv = corner + Vec2((a + unit_random(2 * sub)) / mu,
+                                          (b + unit_random(2 * sub + 1)) / mv) *
+                                         stratum;
             const Color l =
                 environment.smooth_radiance(frame.to_world(square_to_cosine_hemisphere(uv)));
             for (int c = 0; c < 3; ++c)
@@ -185,8 +175,8 @@ Capture capture(const Environment& environment, const RayScene* scene, const Vec
   if (k < 1 || k > 64) throw std::invalid_argument("strata per axis must be 1..64");
   Capture out{Grid(n, 3), {}, {}};
   const Vec3 origin = position + frame.normal * options.ray_offset;
-  trace_strata(environment, scene, origin, frame, options, mix(options.seed ^ mix(index)),
-               out.texels, out.stats);
+  trace_strata(environment, scene, origin, frame, options,
+               splitmix64(options.seed ^ splitmix64(index)), out.texels, out.stats);
 
   const BrightPieces bright = gather_bright_pieces(environment, origin, frame, options);
   std::vector<RayHit> shadow_hits(bright.shadow_rays.size());

@@ -1,4 +1,5 @@
 #include "basis/lighting/mesh.h"
+#include "basis/core/random.h"
 
 #include <tiny_obj_loader.h>
 
@@ -15,17 +16,6 @@ namespace {
 
 Vec3 vertex(const TriangleMesh& m, std::uint32_t i) {
   return {m.vertices[i][0], m.vertices[i][1], m.vertices[i][2]};
-}
-
-std::uint64_t mix(std::uint64_t x) {
-  x += 0x9e3779b97f4a7c15ull;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
-  return x ^ (x >> 31);
-}
-
-double unit(std::uint64_t x) {
-  return double(mix(x) >> 11) * 0x1.0p-53;
 }
 
 std::string first_line(const std::string& text) {
@@ -161,13 +151,13 @@ std::vector<SurfacePoint> sample_surface(const TriangleMesh& mesh, std::size_t c
   for (std::size_t t = 0; t < cdf.size(); ++t)
     cdf[t] = total += mesh.area(t);
   std::vector<SurfacePoint> points(count);
-  const std::uint64_t stream = mix(seed);
+  const std::uint64_t stream = splitmix64(seed);
   for (std::size_t i = 0; i < count; ++i) {
-    const double pick = unit(stream + 3 * i) * total;
+    const double pick = unit_random(stream + 3 * i) * total;
     const std::size_t t = std::min(
         cdf.size() - 1, std::size_t(std::upper_bound(cdf.begin(), cdf.end(), pick) - cdf.begin()));
     // Uniform barycentrics by folding the unit square.
-    double a = unit(stream + 3 * i + 1), b = unit(stream + 3 * i + 2);
+    double a = unit_random(stream + 3 * i + 1), b = unit_random(stream + 3 * i + 2);
     if (a + b > 1) {
       a = 1 - a;
       b = 1 - b;

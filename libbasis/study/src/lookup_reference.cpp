@@ -47,9 +47,9 @@ std::vector<Rgb> reference_lookups(const QtFile& table_file, const QtFile& captu
   options.wi_resolution = table.trees.shape().resolution;
   std::vector<std::pair<double, Grid>> entries;
   for (const TableTap& tap : table_taps(table.wo_resolution, wo))
-    entries.emplace_back(tap.weight,
-                         tabulate_entry(spec.brdf, table_outgoing(tap.i, tap.j, table.wo_resolution),
-                                        options));
+    entries.emplace_back(
+        tap.weight,
+        tabulate_entry(spec.brdf, table_outgoing(tap.i, tap.j, table.wo_resolution), options));
   // The capture's own record of whether it kept its lights apart.
   CaptureOptions capture_options = recipe.options;
   capture_options.compact_lights = captures.light_offsets.empty()

@@ -16,8 +16,8 @@ namespace basis {
 
 // Entry (i, j) sits at parabolic coordinates s_i = -1 + 2 i / (M - 1), t_j = -1 + 2 j / (M - 1)
 // and is tree j * M + i of `trees`, which hold f(wi, wo). When present, tree j * M + i of `tilt`
-// holds the entry's two tilt derivatives (tilt_derivative.h) as channel groups 0 and 1, cut on its own
-// so that lookups without compensation do not pay for it.
+// holds the entry's two tilt derivatives (tilt_derivative.h) as channel groups 0 and 1, cut on its
+// own so that lookups without compensation do not pay for it.
 struct BrdfTableView {
   int wo_resolution = 0;
   TreeSetView trees;

@@ -77,6 +77,23 @@ struct Quadtree {
   int node_count() const { return int(nodes.size() / shape.stride()); }
 };
 
+// Calls visit(node, quadrant, level, x, y) for every leaf quadrant, depth first in pre-order:
+// the quadrant is cell (x, y) of level `level`, [x, x + 1) x [y, y + 1) times 2^-level of the
+// unit square.
+template <typename Visit>
+void for_each_leaf(const QuadtreeView& tree, Visit&& visit) {
+  auto descend = [&](auto&& self, int node, int level, int x, int y) -> void {
+    for (int q = 0; q < 4; ++q) {
+      const int qx = 2 * x + (q & 1), qy = 2 * y + (q >> 1);
+      if (const int child = tree.child(node, q))
+        self(self, child, level + 1, qx, qy);
+      else
+        visit(node, q, level + 1, qx, qy);
+    }
+  };
+  descend(descend, 0, 0, 0, 0);
+}
+
 // The piecewise-constant function of the tree as a dense grid of its resolution, all groups.
 Grid reconstruct(const QuadtreeView& tree);
 
