@@ -1,5 +1,5 @@
 // Image files through OpenImageIO: any format it reads (EXR, HDR, PNG, ...) in, EXR or PNG out.
-// Kept in its own library (basis_image) so that the maths core links no image library.
+// Kept in its own library (basis_image_file) so that the rest links no image library.
 #pragma once
 
 #include <string>
