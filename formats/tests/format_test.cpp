@@ -12,6 +12,7 @@
 #include "basis/core/convolution.h"
 #include "basis/core/projection.h"
 #include "basis/format/qt_file.h"
+#include "basis/format/qt_recipe.h"
 #include "basis_generated.h"
 #include "support/temp_dir.h"
 #include "support/test_functions.h"
@@ -453,6 +454,43 @@ TEST(QtFormat, WritesAreAtomic) {
                FileError);
   EXPECT_EQ(read_bytes(dir.file("keep.qt")), bytes);
   EXPECT_EQ(dir.entries(), (std::vector<std::string>{"folder.qt", "keep.qt"}));
+}
+
+// What capture2qt records reads back as the same recipe: light, scene, capture options, and
+// the projection the trees were cut with.
+TEST(QtRecipe, CaptureParametersReadBackAsTheSameRecipe) {
+  CaptureRecipe constant;
+  constant.constant = {0.1, 2.5e-7, 12345.678901234};
+  constant.options = {.resolution = 64,
+                      .strata = 3,
+                      .seed = 987654321987654321ull,
+                      .ray_offset = 3.25e-4,
+                      .compact_lights = CaptureOptions::CompactLights::splatted};
+  constant.projection = {.tolerance = 0.125, .mode = ProjectionOptions::Mode::absolute};
+  CaptureRecipe map;
+  map.environment = "maps/sunrise.exr";
+  map.rotate_z_degrees = -37.5;
+  map.scene = "scene.obj";
+  map.options.compact_lights = CaptureOptions::CompactLights::apart;
+  for (const CaptureRecipe& r : {constant, map}) {
+    const auto bytes = encode_capture_set(sample_captures(2).view(), r.projection,
+                                          {"capture2qt", "1", capture_parameters(r), {}});
+    const CaptureRecipe back = capture_recipe(QtFile::from_bytes(bytes, "c.qt"));
+    EXPECT_EQ(back.environment, r.environment);
+    EXPECT_EQ(back.constant, r.constant);  // bit for bit: the shortest text that reads back
+    EXPECT_EQ(back.rotate_z_degrees, r.rotate_z_degrees);
+    EXPECT_EQ(back.scene, r.scene);
+    EXPECT_EQ(back.options.resolution, r.options.resolution);
+    EXPECT_EQ(back.options.strata, r.options.strata);
+    EXPECT_EQ(back.options.seed, r.options.seed);
+    EXPECT_EQ(back.options.ray_offset, r.options.ray_offset);
+    EXPECT_EQ(back.options.compact_lights, r.options.compact_lights);
+    EXPECT_EQ(back.projection.tolerance, r.projection.tolerance);
+    EXPECT_EQ(back.projection.mode, r.projection.mode);
+  }
+  // Files from elsewhere say nothing about their inputs.
+  const auto foreign = encode_capture_set(sample_captures(2).view(), {}, test_provenance());
+  EXPECT_THROW(capture_recipe(QtFile::from_bytes(foreign, "f.qt")), FileError);
 }
 
 }  // namespace
