@@ -22,7 +22,7 @@ struct SpeedStudyPanel {
 
 struct SpeedStudyOptions {
   bool quick = false;    // three panels, one light, fewer parameters
-  std::string measured;  // an RGL .bsdf file added as a panel when not empty
+  std::string measured{};  // an RGL .bsdf file added as a panel when not empty
 };
 
 // Lambert 0.8; Lambert 0.5 + Phong 10, 100, 1000 (ks 0.4); GGX 0.5, 0.1, 0.02 (kd 0.1, f0 0.9);
