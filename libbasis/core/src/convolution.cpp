@@ -281,14 +281,6 @@ void descend_product(std::span<const QuadtreeView> factors, const FactorState* s
 
 }  // namespace
 
-bool convolution_uses_simd() {
-#if defined(__SSE2__)
-  return true;
-#else
-  return false;
-#endif
-}
-
 GroupConvolution convolve_groups_scalar(const QuadtreeView& a, const QuadtreeView& b) {
   check_compatible(a.shape(), b.shape());
   const int channels = std::max(a.shape().channels, b.shape().channels);

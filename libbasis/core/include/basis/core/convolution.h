@@ -51,7 +51,4 @@ GroupConvolution convolve_groups_scalar(const QuadtreeView& a, const QuadtreeVie
 // stops on a quadrant as soon as all factors but one are leaves there.
 Rgb convolve_product(std::span<const QuadtreeView> factors);
 
-// Whether the SIMD path is compiled in (otherwise convolve falls back to the scalar path).
-bool convolution_uses_simd();
-
 }  // namespace basis
