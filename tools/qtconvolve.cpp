@@ -22,7 +22,43 @@ struct Row {
   std::optional<basis::Rgb> reference;
 };
 
-void print_json(const std::vector<Row>& rows, double ns_per_convolution, double ns_per_lookup) {
+// Median times over the whole batch, repeated for at least 0.1 s per run.
+struct Timing {
+  double ns_per_lookup = -1;  // per result
+  double ns_per_convolution = -1;
+};
+
+Timing time_results(const basis::FileConvolution& convolution) {
+  float sink = 0;
+  const double ns = basis::median_time_ns(
+      [&] {
+        for (std::size_t k = 0; k < convolution.size(); ++k)
+          sink += convolution(k).value[0];
+      },
+      0.1);
+  if (sink == -1) std::cerr << "";
+  const double per_result = ns / double(convolution.size());
+  return {per_result, per_result / convolution.convolutions_per_result()};
+}
+
+// "N ns per convolution (M ns per lookup)" for the results, and for the trees beside them.
+std::string timing_text(const Timing& time, const std::optional<Timing>& trees) {
+  char text[256];
+  if (!trees) {
+    std::snprintf(text, sizeof text, "%.1f ns per convolution (%.1f ns per lookup)",
+                  time.ns_per_convolution, time.ns_per_lookup);
+  } else {
+    std::snprintf(text, sizeof text,
+                  "dense %.1f ns per convolution (%.1f ns per lookup); trees %.1f ns (%.1f ns); "
+                  "trees %.1fx faster",
+                  time.ns_per_convolution, time.ns_per_lookup, trees->ns_per_convolution,
+                  trees->ns_per_lookup, time.ns_per_lookup / trees->ns_per_lookup);
+  }
+  return text;
+}
+
+void print_json(const std::vector<Row>& rows, const std::optional<Timing>& time,
+                const std::optional<Timing>& trees) {
   nlohmann::ordered_json j;
   j["results"] = nlohmann::ordered_json::array();
   for (std::size_t k = 0; k < rows.size(); ++k) {
@@ -37,9 +73,13 @@ void print_json(const std::vector<Row>& rows, double ns_per_convolution, double 
     }
     j["results"].push_back(r);
   }
-  if (ns_per_convolution >= 0) {
-    j["ns_per_convolution"] = ns_per_convolution;
-    j["ns_per_lookup"] = ns_per_lookup;
+  if (time) {
+    j["ns_per_convolution"] = time->ns_per_convolution;
+    j["ns_per_lookup"] = time->ns_per_lookup;
+  }
+  if (trees) {
+    j["tree_ns_per_convolution"] = trees->ns_per_convolution;
+    j["tree_ns_per_lookup"] = trees->ns_per_lookup;
   }
   std::cout << j.dump(1) << "\n";
 }
@@ -96,7 +136,7 @@ int main(int argc, char** argv) {
       "qtconvolve");
   std::string a_path, b_path, wo_text = "0,0,1", normal_text, tilt_mode = "compensated", png,
                               lights_from = "brdf";
-  bool json = false, csv = false, reference = false, time = false, quiet = false;
+  bool json = false, csv = false, reference = false, time = false, quiet = false, dense = false;
   int threads = 0;
   app.add_option("a", a_path, "first .qt file")->required();
   app.add_option("b", b_path, "second .qt file")->required();
@@ -125,6 +165,10 @@ int main(int argc, char** argv) {
                "its stored spec, captures re-traced from their recorded inputs) and the "
                "difference");
   app.add_flag("--time", time, "report the median time per convolution over repeated runs");
+  app.add_flag("--dense", dense,
+               "compute the same results with vectorised dense products of every tree's "
+               "full-resolution reconstruction (built before timing; untilted lookups); with "
+               "--time, the trees are timed in the same run and both are reported");
   app.add_option("--png", png, "draw the capture points from above, coloured by their values");
   app.add_option("--threads", threads, "worker threads for --reference (default: all cores)")
       ->check(CLI::Range(1, 1024));
@@ -149,8 +193,13 @@ int main(int argc, char** argv) {
                           : tilt_mode == "reparametrised" ? basis::TiltCompensation::reparametrised
                                                           : basis::TiltCompensation::compensated;
     }
-    const basis::FileConvolution convolution(
-        a, b, shading, lights_from == "brdf" ? basis::LightBrdf::spec : basis::LightBrdf::table);
+    const basis::LightBrdf light_brdf =
+        lights_from == "brdf" ? basis::LightBrdf::spec : basis::LightBrdf::table;
+    if (dense && shading.normal) throw UsageError("--dense takes untilted lookups (no --normal)");
+    const basis::FileConvolution trees(a, b, shading, light_brdf);
+    std::optional<basis::FileConvolution> dense_products;
+    if (dense) dense_products.emplace(a, b, shading, light_brdf, basis::Evaluation::dense);
+    const basis::FileConvolution& convolution = dense ? *dense_products : trees;
     // Always said, -q or not: the lights lose accuracy (see --lights).
     if (!convolution.warning().empty())
       std::fprintf(stderr, "qtconvolve: warning: %s\n", convolution.warning().c_str());
@@ -168,20 +217,9 @@ int main(int argc, char** argv) {
     for (std::size_t k = 0; k < rows.size(); ++k)
       rows[k].result = convolution(k);
 
-    double ns_per_convolution = -1, ns_per_lookup = -1;
-    if (time) {
-      // The whole batch, repeated for at least 0.1 s per run; median of five runs.
-      float sink = 0;
-      ns_per_lookup = basis::median_time_ns(
-                          [&] {
-                            for (std::size_t k = 0; k < rows.size(); ++k)
-                              sink += convolution(k).value[0];
-                          },
-                          0.1) /
-                      double(rows.size());
-      ns_per_convolution = ns_per_lookup / convolution.convolutions_per_result();
-      if (sink == -1) std::cerr << "";
-    }
+    std::optional<Timing> timing, tree_timing;
+    if (time) timing = time_results(convolution);
+    if (time && dense) tree_timing = time_results(trees);
 
     if (reference) {
       const auto arena = basis::cli::thread_arena(threads);
@@ -203,10 +241,11 @@ int main(int argc, char** argv) {
       basis::write_image(png, basis::draw_points_from_above(points.positions, values, 768));
     }
 
-    if (json) return print_json(rows, ns_per_convolution, ns_per_lookup);
+    if (json) return print_json(rows, timing, tree_timing);
     if (csv) {
       print_csv(rows, reference);
-      if (time) std::fprintf(stderr, "qtconvolve: %.1f ns per convolution\n", ns_per_convolution);
+      if (timing)
+        std::fprintf(stderr, "qtconvolve: %s\n", timing_text(*timing, tree_timing).c_str());
       return;
     }
     if (rows.size() == 1 && !table) {
@@ -220,8 +259,7 @@ int main(int argc, char** argv) {
               (shading.normal ? " (tilted normal)" : ""),
           reference);
     }
-    if (time)
-      std::printf("# %.1f ns per convolution (%.1f ns per lookup), median of repeated runs\n",
-                  ns_per_convolution, ns_per_lookup);
+    if (timing)
+      std::printf("# %s, medians of repeated runs\n", timing_text(*timing, tree_timing).c_str());
   });
 }

@@ -155,6 +155,7 @@ void QuadtreeProjector::build_levels(const Grid& grid, const ProjectionOptions& 
   levels_ = log2_of(grid.resolution);
   planes_ = grid.channels * grid.groups;
   bounded_ = bounded;
+  channels_ = grid.channels;
   const bool exact = options.bound == ProjectionOptions::Bound::exact;
 
   // Scratch levels 0 .. levels-1, each plane contiguous: values for all planes, errors (and,
@@ -195,9 +196,67 @@ void QuadtreeProjector::build_levels(const Grid& grid, const ProjectionOptions& 
         build_level(values(grid, k, p), p < bounded_ && !texels ? errors(k, p) : nullptr, 1 << k,
                     scratch_values(k - 1, p), p < bounded_ ? errors(k - 1, p) : nullptr);
     }
+  build_deviations(grid);
   // Averages and bounds of texels near the float range can overflow it.
-  if (!all_finite(value_storage_) || !all_finite(error_storage_))
+  if (!all_finite(value_storage_) || !all_finite(error_storage_) ||
+      !all_finite(deviation_storage_))
     throw std::overflow_error("averages or error bounds of texels overflow float (largest 3.4e38)");
+}
+
+void QuadtreeProjector::build_deviations(const Grid& grid) {
+  std::size_t total = 0;
+  for (int k = 0; k < levels_; ++k)
+    total += std::size_t(1) << (2 * k);
+  deviation_storage_.resize(total * channels_);
+  deviation_planes_.assign(std::size_t(levels_) * channels_, nullptr);
+  std::size_t offset = 0;
+  for (int k = 0; k < levels_; ++k) {
+    const std::size_t cells = std::size_t(1) << (2 * k);
+    for (int c = 0; c < channels_; ++c)
+      deviation_planes_[std::size_t(k) * channels_ + c] =
+          deviation_storage_.data() + offset * channels_ + c * cells;
+    offset += cells;
+  }
+  // Bottom-up in double, per channel: each cell's mean and sum of squared deviations of its
+  // texels (Chan et al.'s pairwise update, free of cancellation), then the RMS deviation from
+  // the cell's stored float average, rounded up.
+  for (int c = 0; c < channels_; ++c) {
+    std::vector<double>& mean = moments_[0];
+    std::vector<double>& squares = moments_[1];
+    const std::span<const float> texels = grid.plane(0, c);
+    mean.assign(texels.begin(), texels.end());
+    squares.assign(texels.size(), 0.0);
+    double texels_per_child = 1;
+    for (int k = levels_; k >= 1; --k) {
+      const int fine = 1 << k, coarse = fine / 2;
+      const float* stored = values(grid, k - 1, c);
+      float* deviation = deviations(k - 1, c);
+      for (int y = 0; y < coarse; ++y)
+        for (int x = 0; x < coarse; ++x) {
+          const std::size_t i[4] = {std::size_t(2 * y) * fine + 2 * x,
+                                    std::size_t(2 * y) * fine + 2 * x + 1,
+                                    std::size_t(2 * y + 1) * fine + 2 * x,
+                                    std::size_t(2 * y + 1) * fine + 2 * x + 1};
+          const double m = (mean[i[0]] + mean[i[1]] + mean[i[2]] + mean[i[3]]) / 4;
+          double m2 = 0;
+          for (const std::size_t j : i)
+            m2 += squares[j] + texels_per_child * (mean[j] - m) * (mean[j] - m);
+          const std::size_t o = std::size_t(y) * coarse + x;
+          // Written in place: cell o of the coarse level precedes cells i of the fine one.
+          mean[o] = m;
+          squares[o] = m2;
+          const double offset_from_stored = m - double(stored[o]);
+          const double rms = std::sqrt(m2 / (4 * texels_per_child) +
+                                       offset_from_stored * offset_from_stored);
+          // A margin far above double rounding, then the next float up.
+          const double safe = rms + 1e-12 * (std::abs(m) + rms);
+          float f = float(safe);
+          if (double(f) < safe) f = std::nextafter(f, INFINITY);
+          deviation[o] = f;
+        }
+      texels_per_child *= 4;
+    }
+  }
 }
 
 void QuadtreeProjector::cut(const Grid& grid, std::span<const float> tolerances, int max_depth,
@@ -215,9 +274,11 @@ void QuadtreeProjector::cut(const Grid& grid, std::span<const float> tolerances,
     if (count * stride > out.nodes.size()) {
       out.nodes.resize(std::max<std::size_t>(2 * out.nodes.size(), 16 * stride));
       out.errors.resize(out.nodes.size() / stride * channels);
+      out.deviations.resize(out.errors.size());
     }
     Quad* quads = &out.nodes[node * stride];
     Quad* errors_out = &out.errors[node * channels];
+    Quad* deviations_out = &out.deviations[node * channels];
     if (cell.parent >= 0) {
       std::int32_t* parent_links =
           reinterpret_cast<std::int32_t*>(&out.nodes[cell.parent * stride]);
@@ -243,6 +304,15 @@ void QuadtreeProjector::cut(const Grid& grid, std::span<const float> tolerances,
       for (int q = 0; q < 4; ++q)
         refine |= int(error.lane[q] > tolerances[p]) << q;
     }
+    for (int c = 0; c < channels; ++c) {
+      if (k < levels_) {
+        const float* src = deviations(k, c);
+        std::memcpy(deviations_out[c].lane, src + row0, 2 * sizeof(float));
+        std::memcpy(deviations_out[c].lane + 2, src + row1, 2 * sizeof(float));
+      } else {
+        deviations_out[c] = Quad{};
+      }
+    }
     if (k >= max_depth) refine = 0;
     const std::int32_t no_children[4] = {0, 0, 0, 0};
     std::memcpy(&quads[0], no_children, sizeof no_children);
@@ -253,6 +323,7 @@ void QuadtreeProjector::cut(const Grid& grid, std::span<const float> tolerances,
   }
   out.nodes.resize(count * stride);
   out.errors.resize(count * channels);
+  out.deviations.resize(count * channels);
 }
 
 Quadtree project(const Grid& grid, const ProjectionOptions& options) {

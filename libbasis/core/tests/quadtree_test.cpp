@@ -81,6 +81,41 @@ TEST_P(QuadtreeProperties, StoredErrorBoundsEveryTexel) {
     }
 }
 
+// The stored RMS deviation of every quadrant, against the texels under it (in double): never
+// below it, and above it only by float rounding; never above the error bound.
+TEST_P(QuadtreeProperties, StoredDeviationsAreTheRmsOfEveryQuadrant) {
+  const auto [n, channels] = GetParam();
+  for (const auto& function : test_functions(n, channels, 6)) {
+    const Quadtree tree = project(function.grid, {.tolerance = 0.05});
+    ASSERT_EQ(tree.deviations.size(), tree.errors.size());
+    const QuadtreeView view = tree.view();
+    auto visit = [&](auto&& self, int node, int x0, int y0, int size) -> void {
+      const int half = size / 2;
+      for (int q = 0; q < 4; ++q) {
+        const int qx = x0 + (q & 1) * half, qy = y0 + (q >> 1) * half;
+        for (int c = 0; c < channels; ++c) {
+          const double v = view.value(node, 0, c, q);
+          double squares = 0, magnitude = std::abs(v);
+          for (int y = qy; y < qy + half; ++y)
+            for (int x = qx; x < qx + half; ++x) {
+              const double d = function.grid.at(0, c, x, y) - v;
+              squares += d * d;
+              magnitude = std::max(magnitude, double(std::abs(function.grid.at(0, c, x, y))));
+            }
+          const double rms = std::sqrt(squares / (double(half) * half));
+          const float stored = tree.deviations[std::size_t(node) * channels + c].lane[q];
+          ASSERT_GE(stored, rms * (1 - 1e-12)) << function.name;
+          ASSERT_LE(stored, rms + 1e-6 * magnitude + 1e-30) << function.name;
+          ASSERT_LE(stored, view.error(node, c, q) * (1 + 1e-6) + 1e-6 * magnitude)
+              << function.name;
+        }
+        if (const int child = view.child(node, q)) self(self, child, qx, qy, half);
+      }
+    };
+    visit(visit, 0, 0, 0, n);
+  }
+}
+
 TEST_P(QuadtreeProperties, ExactBoundsNeverNeedMoreNodesThanThePapers) {
   const auto [n, channels] = GetParam();
   for (const auto& [name, grid] : test_functions(n, channels, 6))

@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "basis/core/dense.h"
 #include "basis/core/hemisphere.h"
 
 namespace basis {
@@ -16,6 +17,33 @@ Tilt capture_tilt(const CaptureSetView& captures, std::size_t k, const Vec3& nor
     throw std::invalid_argument("the shading normal is opposite the capture's normal");
   return tilt_to(local);
 }
+
+namespace {
+
+// Adds f(wi, wo) E wi.z for each light, turned from the record's frame into the shading frame
+// when both are given; lights below the shading horizon drop out. f is light_brdf at wi when
+// given, else what table_f(wi, f, error) adds up (with its error bound).
+template <typename TableF>
+void add_lights(std::span<const DirectionalLight> lights, const std::optional<Frame>& record,
+                const std::optional<Frame>& shading, const Vec3& wo, const Brdf* light_brdf,
+                Convolution& result, const TableF& table_f) {
+  for (const DirectionalLight& light : lights) {
+    Vec3 wi = light.direction;
+    if (shading) wi = shading->to_local(record->to_world(wi));
+    if (!(wi.z() > 0)) continue;
+    Color f{0, 0, 0}, error{0, 0, 0};
+    if (light_brdf)
+      f = evaluate(*light_brdf, wi, wo);
+    else
+      table_f(wi, f, error);
+    for (int c = 0; c < 3; ++c) {
+      result.value[c] += float(f[c] * light.energy[c] * wi.z());
+      result.bound[c] += float(error[c] * light.energy[c] * wi.z());
+    }
+  }
+}
+
+}  // namespace
 
 Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, std::size_t k,
                   const ShadingOptions& options) {
@@ -40,30 +68,47 @@ Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, st
   const auto taps =
       options.light_brdf ? std::array<TableTap, 4>{} : table_taps(table.wo_resolution, wo);
   const int table_channels = table.trees.shape().channels;
-  for (const DirectionalLight& light : lights) {
-    Vec3 wi = light.direction;
-    if (shading) wi = shading->to_local(record->to_world(wi));
-    if (!(wi.z() > 0)) continue;
-    Color f{0, 0, 0}, error{0, 0, 0};
-    if (options.light_brdf) {
-      f = evaluate(*options.light_brdf, wi, wo);
-    } else {
-      const Vec2 uv = cosine_hemisphere_to_square(wi);
-      for (const TableTap& tap : taps) {
-        const QuadtreeView entry = table.entry(tap.i, tap.j);
-        const LeafQuadrant leaf = find_leaf(entry, uv.x(), uv.y());
-        for (int c = 0; c < 3; ++c) {
-          const int channel = std::min(c, table_channels - 1);
-          f[c] += tap.weight * entry.value(leaf.node, 0, channel, leaf.quadrant);
-          error[c] += tap.weight * entry.error(leaf.node, channel, leaf.quadrant);
-        }
-      }
-    }
-    for (int c = 0; c < 3; ++c) {
-      result.value[c] += float(f[c] * light.energy[c] * wi.z());
-      result.bound[c] += float(error[c] * light.energy[c] * wi.z());
-    }
+  add_lights(lights, record, shading, wo, options.light_brdf, result,
+             [&](const Vec3& wi, Color& f, Color& error) {
+               const Vec2 uv = cosine_hemisphere_to_square(wi);
+               for (const TableTap& tap : taps) {
+                 const QuadtreeView entry = table.entry(tap.i, tap.j);
+                 const LeafQuadrant leaf = find_leaf(entry, uv.x(), uv.y());
+                 for (int c = 0; c < 3; ++c) {
+                   const int channel = std::min(c, table_channels - 1);
+                   f[c] += tap.weight * entry.value(leaf.node, 0, channel, leaf.quadrant);
+                   error[c] += tap.weight * entry.error(leaf.node, channel, leaf.quadrant);
+                 }
+               }
+             });
+  return result;
+}
+
+DenseLookup dense_lookup(const BrdfTableView& table, const Vec3& wo) {
+  DenseLookup lookup;
+  lookup.wo = wo.normalized();
+  for (const TableTap& tap : table_taps(table.wo_resolution, lookup.wo))
+    lookup.entries.push_back({tap.weight, reconstruct(table.entry(tap.i, tap.j))});
+  return lookup;
+}
+
+Convolution shade_dense(const DenseLookup& table, const Grid& radiance,
+                        std::span<const DirectionalLight> lights, const Brdf* light_brdf) {
+  Convolution result;
+  for (const auto& [weight, entry] : table.entries) {
+    if (weight == 0) continue;
+    const Rgb d = dense_convolve_simd(entry, radiance);
+    for (int c = 0; c < 3; ++c)
+      result.value[c] += float(weight * std::numbers::pi * d[c]);
   }
+  add_lights(lights, std::nullopt, std::nullopt, table.wo, light_brdf, result,
+             [&](const Vec3& wi, Color& f, Color&) {
+               for (const auto& [weight, entry] : table.entries) {
+                 const auto [x, y] = cosine_hemisphere_texel(wi, entry.resolution);
+                 for (int c = 0; c < 3; ++c)
+                   f[c] += weight * entry.at(0, std::min(c, entry.channels - 1), x, y);
+               }
+             });
   return result;
 }
 

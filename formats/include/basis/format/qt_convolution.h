@@ -6,6 +6,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "basis/brdf/brdf_spec.h"
 #include "basis/format/qt_file.h"
@@ -19,14 +20,20 @@ enum class LightBrdf {
   table,  // the table's entries, at the texel the light falls in
 };
 
+// How results are computed: by descending the trees, or with vectorised dense products of the
+// trees' full-resolution reconstructions (built when the FileConvolution is made), which give
+// the same values up to rounding and are what the trees' speed is measured against.
+enum class Evaluation { trees, dense };
+
 class FileConvolution {
  public:
   // Checks the pair: two BRDF tables, or two capture sets of different points, are a FileError
   // naming b. With LightBrdf::spec and a capture set that holds lights, the table's spec is
   // parsed; if that fails (a measured BRDF's data file is missing) the table's entries are used
-  // and warning() says why. The files must outlive this object.
+  // and warning() says why. Dense evaluation takes untilted lookups only (std::invalid_argument
+  // otherwise). The files must outlive this object.
   FileConvolution(const QtFile& a, const QtFile& b, const ShadingOptions& shading,
-                  LightBrdf lights = LightBrdf::spec);
+                  LightBrdf lights = LightBrdf::spec, Evaluation evaluation = Evaluation::trees);
   FileConvolution(const FileConvolution&) = delete;
   FileConvolution& operator=(const FileConvolution&) = delete;
 
@@ -34,7 +41,7 @@ class FileConvolution {
   // shades.
   std::size_t size() const { return size_; }
   // Result k: the reflected radiance (pi included) with its certified bound, or the hemisphere
-  // integral of A B cos of point k.
+  // integral of A B cos of point k (bound 0 when evaluated densely).
   Convolution operator()(std::size_t k) const;
 
   // The BRDF table, when one of the files is a table; the file it shades.
@@ -57,6 +64,10 @@ class FileConvolution {
   std::optional<BrdfSpec> light_spec_;
   std::string warning_;
   std::size_t size_ = 0;
+  // Dense evaluation: the table's entries around wo, and every tree of the other files as a
+  // full-resolution grid, a capture's directional lights splatted into it for products.
+  std::optional<DenseLookup> dense_table_;
+  std::vector<Grid> dense_a_, dense_b_;
 };
 
 }  // namespace basis

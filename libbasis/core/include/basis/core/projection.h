@@ -38,7 +38,8 @@ struct ProjectionOptions {
   Color extra_mean{0, 0, 0};
 };
 
-// Builds and cuts quadtrees. Reuse one projector to avoid reallocating its scratch levels.
+// Builds and cuts quadtrees: averages, the bounds the cut uses, and the RMS deviation of every
+// quadrant (Quadtree::deviations). Reuse one projector to avoid reallocating its scratch.
 class QuadtreeProjector {
  public:
   // Projects a grid of resolution 2..512 (power of two) with 1 or 3 channels, 1 to 3 groups
@@ -62,6 +63,10 @@ class QuadtreeProjector {
   const float* values(const Grid& grid, int k, int p) const;
   float* scratch_values(int k, int p) { return value_planes_[std::size_t(k) * planes_ + p]; }
   float* errors(int k, int p) { return error_planes_[std::size_t(k) * bounded_ + p]; }
+  // RMS deviation of the texels under each cell of level k from its stored average, channel c
+  // of group 0, rounded up (levels 0 .. log2(N) - 1).
+  float* deviations(int k, int c) { return deviation_planes_[std::size_t(k) * channels_ + c]; }
+  void build_deviations(const Grid& grid);
   // Exact bounds: smallest (0) and largest (1) texel under each cell of level k, plane p.
   float* extremes(int k, int p, int which) {
     return extreme_planes_[2 * (std::size_t(k) * bounded_ + p) + which];
@@ -72,12 +77,15 @@ class QuadtreeProjector {
     std::int32_t parent;  // node whose link to fill, -1 for the root
     int quadrant;
   };
-  int levels_ = 0, planes_ = 0, bounded_ = 0;
+  int levels_ = 0, planes_ = 0, bounded_ = 0, channels_ = 0;
   std::vector<float> value_storage_;  // levels 0 .. log2(N)-1, planar per group and channel
   std::vector<float> error_storage_;  // the same levels, bounded planes; then the extremes
   std::vector<float*> value_planes_;
   std::vector<float*> error_planes_;
   std::vector<float*> extreme_planes_;
+  std::vector<float> deviation_storage_;
+  std::vector<float*> deviation_planes_;
+  std::vector<double> moments_[2];  // mean and sum of squared deviations of one level, per cell
   std::vector<PendingCell> pending_;
 };
 

@@ -67,11 +67,14 @@ class QuadtreeView {
   std::span<const Quad> errors_;
 };
 
-// An owning quadtree.
+// An owning quadtree. `deviations`, laid out like `errors`, holds for each quadrant the RMS
+// deviation of group 0's texels from the quadrant's value, rounded up (a bound in the L2 sense,
+// at most the error bound); projection fills it, and it may be empty for trees made otherwise.
 struct Quadtree {
   QuadtreeShape shape;
   std::vector<Quad> nodes;
   std::vector<Quad> errors;
+  std::vector<Quad> deviations;
 
   QuadtreeView view() const { return {shape, nodes, errors}; }
   int node_count() const { return int(nodes.size() / shape.stride()); }

@@ -3,6 +3,9 @@
 #pragma once
 
 #include <optional>
+#include <span>
+#include <utility>
+#include <vector>
 
 #include "basis/brdf/table_lookup.h"
 #include "basis/core/frame.h"
@@ -34,6 +37,20 @@ Tilt capture_tilt(const CaptureSetView& captures, std::size_t k, const Vec3& nor
 // is 0 with light_brdf, else the entries' leaf error bounds at its texel.
 Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, std::size_t k,
                   const ShadingOptions& options);
+
+// The dense counterpart of an untilted lookup at wo, for comparisons: the four table entries
+// around wo reconstructed at full resolution with their bilinear weights.
+struct DenseLookup {
+  Vec3 wo{0, 0, 1};
+  std::vector<std::pair<double, Grid>> entries;
+};
+DenseLookup dense_lookup(const BrdfTableView& table, const Vec3& wo);
+
+// What shade() returns for an untilted lookup, computed with vectorised dense products of the
+// entries' and the capture's full-resolution grids (the trees' reconstructions give the same
+// value up to rounding); the bound is 0.
+Convolution shade_dense(const DenseLookup& table, const Grid& radiance,
+                        std::span<const DirectionalLight> lights, const Brdf* light_brdf);
 
 // The integral of L_a L_b cos over the hemisphere (pi times the product's integral over the
 // cosine-weighted map) at capture k of two sets of one resolution, each capture's directional

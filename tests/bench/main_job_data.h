@@ -1,0 +1,59 @@
+// The main job's files for the lookup benchmarks, made on first use and kept in the build
+// folder: data/phong.json and data/ggx.json tabulated at the defaults, and 1000 captures on
+// data/scene.obj under the Poly Haven sunrise map (as scripts/demo.sh makes them). Loaded as the
+// tools load them, so that trees are read from a memory-mapped file, cold unless reused.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <string>
+
+#include "basis/brdf/brdf_spec.h"
+#include "basis/brdf/brdf_table.h"
+#include "basis/format/qt_file.h"
+#include "basis/format/qt_recipe.h"
+#include "basis/io/image_file.h"
+#include "basis/lighting/capture.h"
+#include "basis/lighting/embree_scene.h"
+#include "basis/lighting/mesh.h"
+
+namespace basis::bench {
+
+inline const QtFile& main_job_file(const std::string& name) {
+  static std::map<std::string, QtFile> loaded;
+  if (auto it = loaded.find(name); it != loaded.end()) return it->second;
+  const std::filesystem::path folder = BASIS_BENCH_DATA_DIR;
+  std::filesystem::create_directories(folder);
+  const std::string path = (folder / (name + ".qt")).string();
+  const std::string source = BASIS_SOURCE_DIR;
+  if (!std::filesystem::exists(path)) {
+    if (name == "captures") {
+      CaptureRecipe recipe;
+      recipe.environment = "/usr/share/blender/datafiles/studiolights/world/sunrise.exr";
+      recipe.scene = source + "/data/scene.obj";
+      const TriangleMesh mesh = read_obj(recipe.scene);
+      const EmbreeScene scene(mesh);
+      const Environment env(read_image(recipe.environment), 0, recipe.environment);
+      recipe.options = {.resolution = 128,
+                        .strata = 2,
+                        .seed = 1,
+                        .ray_offset = 1e-4 * std::max(1.0, mesh.extent()),
+                        .compact_lights = CaptureOptions::CompactLights::apart};
+      CaptureSetOptions options;
+      options.capture = recipe.options;
+      options.projection = recipe.projection;
+      const CaptureSet set = capture_set(env, &scene, sample_surface(mesh, 1000, 1), options);
+      write_qt(path, encode_capture_set(set.view(), recipe.projection,
+                                        {"capture2qt", "bench", capture_parameters(recipe), {}}));
+    } else {
+      const BrdfSpec spec = read_brdf_spec(source + "/data/" + name + ".json");
+      const BrdfTableOptions options;
+      const BrdfTable table = tabulate_brdf(spec.brdf, options);
+      write_qt(path, encode_brdf_table(table.view(), spec.model, spec.text, options.projection,
+                                       {"brdf2qt", "bench", "{}", {}}));
+    }
+  }
+  return loaded.emplace(name, QtFile::load(path)).first->second;
+}
+
+}  // namespace basis::bench
