@@ -198,8 +198,7 @@ void QuadtreeProjector::build_levels(const Grid& grid, const ProjectionOptions& 
     }
   build_deviations(grid);
   // Averages and bounds of texels near the float range can overflow it.
-  if (!all_finite(value_storage_) || !all_finite(error_storage_) ||
-      !all_finite(deviation_storage_))
+  if (!all_finite(value_storage_) || !all_finite(error_storage_) || !all_finite(deviation_storage_))
     throw std::overflow_error("averages or error bounds of texels overflow float (largest 3.4e38)");
 }
 
@@ -233,10 +232,9 @@ void QuadtreeProjector::build_deviations(const Grid& grid) {
       float* deviation = deviations(k - 1, c);
       for (int y = 0; y < coarse; ++y)
         for (int x = 0; x < coarse; ++x) {
-          const std::size_t i[4] = {std::size_t(2 * y) * fine + 2 * x,
-                                    std::size_t(2 * y) * fine + 2 * x + 1,
-                                    std::size_t(2 * y + 1) * fine + 2 * x,
-                                    std::size_t(2 * y + 1) * fine + 2 * x + 1};
+          const std::size_t i[4] = {
+              std::size_t(2 * y) * fine + 2 * x, std::size_t(2 * y) * fine + 2 * x + 1,
+              std::size_t(2 * y + 1) * fine + 2 * x, std::size_t(2 * y + 1) * fine + 2 * x + 1};
           const double m = (mean[i[0]] + mean[i[1]] + mean[i[2]] + mean[i[3]]) / 4;
           double m2 = 0;
           for (const std::size_t j : i)
@@ -246,8 +244,8 @@ void QuadtreeProjector::build_deviations(const Grid& grid) {
           mean[o] = m;
           squares[o] = m2;
           const double offset_from_stored = m - double(stored[o]);
-          const double rms = std::sqrt(m2 / (4 * texels_per_child) +
-                                       offset_from_stored * offset_from_stored);
+          const double rms =
+              std::sqrt(m2 / (4 * texels_per_child) + offset_from_stored * offset_from_stored);
           // A margin far above double rounding, then the next float up.
           const double safe = rms + 1e-12 * (std::abs(m) + rms);
           float f = float(safe);

@@ -80,11 +80,14 @@ struct Quadtree {
   int node_count() const { return int(nodes.size() / shape.stride()); }
 };
 
+// Walks and queries for any view of a tree with child(), value() and shape(): QuadtreeView, or
+// PackedTreeView (packed_tree.h).
+
 // Calls visit(node, quadrant, level, x, y) for every leaf quadrant, depth first in pre-order:
 // the quadrant is cell (x, y) of level `level`, [x, x + 1) x [y, y + 1) times 2^-level of the
 // unit square.
-template <typename Visit>
-void for_each_leaf(const QuadtreeView& tree, Visit&& visit) {
+template <typename Tree, typename Visit>
+void for_each_leaf(const Tree& tree, Visit&& visit) {
   auto descend = [&](auto&& self, int node, int level, int x, int y) -> void {
     for (int q = 0; q < 4; ++q) {
       const int qx = 2 * x + (q & 1), qy = 2 * y + (q >> 1);
@@ -98,21 +101,72 @@ void for_each_leaf(const QuadtreeView& tree, Visit&& visit) {
 }
 
 // The piecewise-constant function of the tree as a dense grid of its resolution, all groups.
-Grid reconstruct(const QuadtreeView& tree);
+template <typename Tree>
+Grid reconstruct(const Tree& tree) {
+  const auto& s = tree.shape();
+  Grid grid(s.resolution, s.channels, s.groups);
+  for_each_leaf(tree, [&](int node, int q, int level, int x, int y) {
+    const int size = s.resolution >> level, x0 = x * size, y0 = y * size;
+    for (int g = 0; g < s.groups; ++g)
+      for (int c = 0; c < s.channels; ++c) {
+        const float v = tree.value(node, g, c, q);
+        for (int ty = y0; ty < y0 + size; ++ty)
+          for (int tx = x0; tx < x0 + size; ++tx)
+            grid.at(g, c, tx, ty) = v;
+      }
+  });
+  return grid;
+}
+
+// The leaf quadrant holding (u, v) in [0,1]^2, for reading its values and bounds; level 1 is a
+// quadrant of the root.
+struct LeafQuadrant {
+  int node, quadrant, level;
+};
+template <typename Tree>
+LeafQuadrant find_leaf(const Tree& tree, double u, double v) {
+  int node = 0;
+  double u0 = 0, v0 = 0, size = 1;
+  for (int level = 1;; ++level) {
+    size /= 2;
+    const int qx = u >= u0 + size, qy = v >= v0 + size;
+    const int q = qx + 2 * qy;
+    const int child = tree.child(node, q);
+    if (!child) return {node, q, level};
+    u0 += qx * size;
+    v0 += qy * size;
+    node = child;
+  }
+}
 
 // Value of group g, channel c at (u, v) in [0,1]^2: the average of the leaf cell holding it.
-float evaluate(const QuadtreeView& tree, double u, double v, int group = 0, int channel = 0);
-
-// The leaf quadrant holding (u, v) in [0,1]^2, for reading its values and error bounds.
-struct LeafQuadrant {
-  int node, quadrant;
-};
-LeafQuadrant find_leaf(const QuadtreeView& tree, double u, double v);
+template <typename Tree>
+float evaluate(const Tree& tree, double u, double v, int group = 0, int channel = 0) {
+  const LeafQuadrant leaf = find_leaf(tree, u, v);
+  return tree.value(leaf.node, group, channel, leaf.quadrant);
+}
 
 // Integral over [0,1]^2 of group g, channel c (equal to the mean of the source grid).
-double integrate(const QuadtreeView& tree, int group = 0, int channel = 0);
+template <typename Tree>
+double integrate(const Tree& tree, int group = 0, int channel = 0) {
+  double sum = 0;
+  for (int q = 0; q < 4; ++q)
+    sum += tree.value(0, group, channel, q);
+  return sum / 4;
+}
 
 // Node counts per level (index = level of the node, 0 = root) and the deepest level + 1.
-std::vector<int> depth_histogram(const QuadtreeView& tree);
+template <typename Tree>
+std::vector<int> depth_histogram(const Tree& tree) {
+  std::vector<int> histogram;
+  auto visit = [&](auto&& self, int node, int level) -> void {
+    if (int(histogram.size()) <= level) histogram.resize(level + 1, 0);
+    ++histogram[level];
+    for (int q = 0; q < 4; ++q)
+      if (const int child = tree.child(node, q)) self(self, child, level + 1);
+  };
+  if (tree.node_count() > 0) visit(visit, 0, 0);
+  return histogram;
+}
 
 }  // namespace basis

@@ -1,0 +1,96 @@
+#include "basis/core/packed_tree.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+namespace basis {
+
+float PackedTreeView::largest_deviation_bound(int n, int c, int q, int level) const {
+  const float b = bound(n, c, q);
+  if (shape_.bounds == BoundKind::linf) return b;
+  // RMS x sqrt(texels): no texel deviates more than the RMS of all of them allows.
+  const double texels_per_side = double(shape_.resolution) / double(1 << level);
+  return float(double(b) * std::max(1.0, texels_per_side) * (1 + 1e-6));
+}
+
+PackedTree pack(const Quadtree& tree, BoundKind bounds) {
+  const QuadtreeView source = tree.view();
+  const QuadtreeShape& s = tree.shape;
+  PackedTree out;
+  out.shape = {s.resolution, s.channels, s.groups, bounds};
+  const int count = source.node_count();
+  const int words = out.shape.words_per_node();
+  const bool have_deviations = !tree.deviations.empty();
+  auto source_bound = [&](int node, int c, int q) -> double {
+    if (bounds == BoundKind::l2 && have_deviations)
+      return tree.deviations[std::size_t(node) * s.channels + c].lane[q];
+    return source.error(node, c, q);
+  };
+
+  // Scales: the largest value a little below the largest half; bounds up to the largest.
+  double largest = 0;
+  for (int n = 0; n < count; ++n)
+    for (int g = 0; g < s.groups; ++g)
+      for (int c = 0; c < s.channels; ++c)
+        for (int q = 0; q < 4; ++q)
+          largest = std::max(largest, double(std::abs(source.value(n, g, c, q))));
+  out.scales.value_scale = largest > 0 ? std::ldexp(1.0f, std::ilogb(largest) - 14) : 1.0f;
+  const double value_scale = out.scales.value_scale;
+  auto packed_value = [&](float v) {
+    const std::uint16_t h = float_to_half(float(double(v) / value_scale));
+    return std::pair{h, double(half_to_float(h)) * value_scale};
+  };
+  // Bounds for the packed values: the source's plus how far each value moved.
+  std::vector<double> moved_bounds(std::size_t(count) * s.channels * 4);
+  double largest_bound = 0;
+  for (int n = 0; n < count; ++n)
+    for (int c = 0; c < s.channels; ++c)
+      for (int q = 0; q < 4; ++q) {
+        const float v = source.value(n, 0, c, q);
+        const double b = source_bound(n, c, q) + std::abs(packed_value(v).second - double(v));
+        moved_bounds[(std::size_t(n) * s.channels + c) * 4 + q] = b;
+        largest_bound = std::max(largest_bound, b);
+      }
+  float bound_scale = float(largest_bound);
+  if (double(bound_scale) < largest_bound) bound_scale = std::nextafter(bound_scale, INFINITY);
+  out.scales.bound_scale = bound_scale > 0 ? bound_scale : 1.0f;
+  // The float each code decodes to with this scale, for the smallest code that bounds.
+  std::array<float, 256> decoded;
+  for (int code = 0; code < 256; ++code)
+    decoded[code] = bound_code_value(std::uint8_t(code)) * out.scales.bound_scale;
+  auto code_for = [&](double b) {
+    const auto it = std::lower_bound(decoded.begin(), decoded.end(), b,
+                                     [](float d, double x) { return double(d) < x; });
+    return std::uint8_t(it == decoded.end() ? 255 : it - decoded.begin());
+  };
+
+  // Breadth-first order: node i's children get the next indices, in quadrant order.
+  out.words.assign(std::size_t(count) * words, 0);
+  std::vector<int> order{0};
+  order.reserve(count);
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    const int n = order[i];
+    std::uint32_t* w = out.words.data() + i * words;
+    std::uint32_t mask = 0;
+    const auto first = std::uint32_t(order.size());
+    for (int q = 0; q < 4; ++q)
+      if (const int child = source.child(n, q)) {
+        mask |= 1u << q;
+        order.push_back(child);
+      }
+    w[0] = mask ? first << 4 | mask : 0;
+    auto* halves = reinterpret_cast<std::uint16_t*>(w + 1);
+    for (int g = 0; g < s.groups; ++g)
+      for (int c = 0; c < s.channels; ++c)
+        for (int q = 0; q < 4; ++q)
+          halves[(g * s.channels + c) * 4 + q] = packed_value(source.value(n, g, c, q)).first;
+    auto* codes = reinterpret_cast<std::uint8_t*>(w + 1 + 2 * s.groups * s.channels);
+    for (int c = 0; c < s.channels; ++c)
+      for (int q = 0; q < 4; ++q)
+        codes[c * 4 + q] = code_for(moved_bounds[(std::size_t(n) * s.channels + c) * 4 + q]);
+  }
+  return out;
+}
+
+}  // namespace basis

@@ -1,0 +1,144 @@
+// Half floats against the processor's own conversion; packed trees: the same topology, values
+// within half precision, and bounds that still hold for every texel (linf) and every quadrant's
+// RMS deviation (l2) after rounding.
+#include <gtest/gtest.h>
+
+#include <bit>
+#include <cmath>
+#include <random>
+
+#if defined(__F16C__)
+#include <immintrin.h>
+#endif
+
+#include "basis/core/packed_tree.h"
+#include "basis/core/projection.h"
+#include "support/test_functions.h"
+
+namespace basis {
+namespace {
+
+using testing::test_functions;
+
+TEST(Half, EveryHalfRoundTripsThroughFloat) {
+  for (std::uint32_t h = 0; h < 0x10000; ++h) {
+    const float f = half_to_float(std::uint16_t(h));
+    if (std::isnan(f)) {
+      EXPECT_TRUE(std::isnan(half_to_float(float_to_half(f))));
+      continue;
+    }
+    ASSERT_EQ(float_to_half(f), h) << h;
+  }
+  EXPECT_EQ(half_to_float(0x3c00), 1.0f);
+  EXPECT_EQ(half_to_float(0x7bff), 65504.0f);
+  EXPECT_EQ(half_to_float(0x0001), 0x1p-24f);
+  EXPECT_EQ(half_to_float(0xc000), -2.0f);
+}
+
+// A second conversion by arithmetic in double: the value in units of its half spacing,
+// rounded to nearest even by nearbyint (the default rounding mode).
+std::uint16_t reference_float_to_half(float f) {
+  const std::uint16_t sign = std::signbit(f) ? 0x8000 : 0;
+  const double a = std::abs(double(f));
+  if (std::isinf(f) || a >= 65520.0) return sign | 0x7c00;
+  if (a < 0x1p-14) return sign | std::uint16_t(std::nearbyint(a * 0x1p24));  // subnormal units
+  int exponent = std::ilogb(a);  // 2^exponent <= a < 2^(exponent + 1)
+  const double units = std::nearbyint(std::ldexp(a, 10 - exponent));  // 1024 .. 2048
+  const int e = exponent + 15 + (units == 2048 ? 1 : 0);
+  const int mantissa = units == 2048 ? 0 : int(units) - 1024;
+  if (e >= 31) return sign | 0x7c00;
+  return sign | std::uint16_t(e << 10 | mantissa);
+}
+
+// Rounding to nearest even, against a second implementation (and the F16C instruction when the
+// build has it) on floats drawn from every exponent and on the halfway points between halves.
+TEST(Half, RoundsToNearestEven) {
+  std::mt19937 rng(3);
+  std::vector<float> floats = {0.0f,       -0.0f,    65504.0f, 65519.99f,   65520.0f,
+                               1e30f,      -1e-30f,  0x1p-25f, 0x1.8p-25f,  0x1p-24f,
+                               0x1.8p-24f, INFINITY, 0x1p-14f, 0x1.ffcp-15f};
+  for (int i = 0; i < 2000000; ++i)
+    floats.push_back(std::bit_cast<float>(std::uint32_t(rng())));
+  for (std::uint32_t h = 0; h < 0x7c00; ++h)  // halfway above each half
+    floats.push_back((half_to_float(std::uint16_t(h)) + half_to_float(std::uint16_t(h + 1))) / 2);
+  for (const float f : floats) {
+    if (std::isnan(f)) continue;
+    ASSERT_EQ(float_to_half(f), reference_float_to_half(f)) << std::hexfloat << f;
+#if defined(__F16C__)
+    ASSERT_EQ(float_to_half(f), std::uint16_t(_cvtss_sh(f, _MM_FROUND_TO_NEAREST_INT)))
+        << std::hexfloat << f;
+#endif
+  }
+}
+
+class PackedTrees : public ::testing::TestWithParam<std::tuple<int, int>> {};
+
+TEST_P(PackedTrees, KeepTopologyValuesAndCertifiedBounds) {
+  const auto [n, channels] = GetParam();
+  for (const auto& function : test_functions(n, channels, 21)) {
+    const Quadtree tree = project(function.grid, {.tolerance = 0.05});
+    for (const BoundKind kind : {BoundKind::l2, BoundKind::linf}) {
+      const PackedTree packed = pack(tree, kind);
+      const PackedTreeView p = packed.view();
+      ASSERT_EQ(p.node_count(), tree.node_count());
+      // The same cells, breadth first: every leaf of one is a leaf of the other.
+      std::vector<std::array<int, 4>> cells_a, cells_b;
+      for_each_leaf(tree.view(), [&](int, int q, int level, int x, int y) {
+        cells_a.push_back({q, level, x, y});
+      });
+      std::vector<std::pair<int, int>> leaves;  // (node, quadrant) of p, in the same order
+      for_each_leaf(p, [&](int node, int q, int level, int x, int y) {
+        cells_b.push_back({q, level, x, y});
+        leaves.push_back({node, q});
+      });
+      ASSERT_EQ(cells_a, cells_b) << function.name;
+      // Breadth first: children follow their parent, blocks in order.
+      std::uint32_t next = 1;
+      for (int node = 0; node < p.node_count(); ++node) {
+        const std::uint32_t link = p.link(node);
+        if (link == 0) continue;
+        ASSERT_EQ(link >> 4, next);
+        next += std::uint32_t(std::popcount(link & 15u));
+      }
+      ASSERT_EQ(next, std::uint32_t(p.node_count()));
+      // Values within half precision of the tree's; bounds certified against the texels.
+      std::size_t leaf = 0;
+      for_each_leaf(tree.view(), [&](int node, int q, int level, int x, int y) {
+        const auto [pn, pq] = leaves[leaf++];
+        const int size = n >> level;
+        for (int c = 0; c < channels; ++c) {
+          const float v = tree.view().value(node, 0, c, q), pv = p.value(pn, 0, c, pq);
+          ASSERT_LE(std::abs(pv - v), std::abs(v) * 0x1p-11f + p.scales().value_scale * 0x1p-24f)
+              << function.name;
+          double squares = 0, largest = 0;
+          for (int ty = y * size; ty < (y + 1) * size; ++ty)
+            for (int tx = x * size; tx < (x + 1) * size; ++tx) {
+              const double d = std::abs(double(function.grid.at(0, c, tx, ty)) - pv);
+              squares += d * d;
+              largest = std::max(largest, d);
+            }
+          const double rms = std::sqrt(squares / (double(size) * size));
+          ASSERT_LE(rms, double(p.bound(pn, c, pq)) * (1 + 1e-6)) << function.name;
+          ASSERT_LE(largest, double(p.largest_deviation_bound(pn, c, pq, level)) * (1 + 1e-6))
+              << function.name;
+          // Codes round up by at most one step of 2^-3 over the source bound and the move.
+          const double source = kind == BoundKind::l2
+                                    ? tree.deviations[std::size_t(node) * channels + c].lane[q]
+                                    : tree.view().error(node, c, q);
+          EXPECT_LE(p.bound(pn, c, pq),
+                    (source + std::abs(pv - v)) * 1.126 + p.scales().bound_scale * 0x1p-30)
+              << function.name;
+        }
+      });
+      EXPECT_NEAR(integrate(p, 0, 0), integrate(tree.view(), 0, 0),
+                  1e-3 * std::abs(integrate(tree.view(), 0, 0)) + 1e-9);
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Shapes, PackedTrees,
+                         ::testing::Values(std::tuple{8, 1}, std::tuple{32, 3}, std::tuple{128, 3},
+                                           std::tuple{64, 1}));
+
+}  // namespace
+}  // namespace basis
