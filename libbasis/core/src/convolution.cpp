@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "scalar_descent.h"
+
 #if defined(__SSE2__)
 #include <immintrin.h>
 #endif
@@ -26,31 +28,14 @@ inline void check_compatible(const QuadtreeShape& a, const QuadtreeShape& b) {
 
 // ---------------------------------------------------------------- portable scalar reference
 
-struct ScalarSums {
-  double value[3][3] = {};  // [group][channel]
-  double bound[3] = {};
-};
+using detail::ScalarSums;
 
-// Groups 0 .. groups-1 of a against group 0 of b; the bound is group 0's.
-void descend_scalar(const QuadtreeView& a, const QuadtreeView& b, int na, int nb, double area,
-                    int channels, int groups, ScalarSums& sums) {
-  const int ca_count = a.shape().channels, cb_count = b.shape().channels;
-  for (int q = 0; q < 4; ++q) {
-    const int child_a = a.child(na, q), child_b = b.child(nb, q);
-    if (child_a && child_b) {
-      descend_scalar(a, b, child_a, child_b, area / 4, channels, groups, sums);
-      continue;
-    }
-    for (int c = 0; c < channels; ++c) {
-      const int ca = ca_count == 1 ? 0 : c, cb = cb_count == 1 ? 0 : c;
-      const double vb = b.value(nb, 0, cb, q);
-      for (int g = 0; g < groups; ++g)
-        sums.value[g][c] += a.value(na, g, ca, q) * vb * area;
-      const double va = a.value(na, 0, ca, q);
-      const double ea = a.error(na, ca, q), eb = b.error(nb, cb, q);
-      sums.bound[c] += area * std::min({ea * eb, ea * std::abs(vb), eb * std::abs(va)});
-    }
-  }
+// The bound of a stopped pair of float trees: min(ea eb, ea |b|, eb |a|).
+auto float_pair_bound(const QuadtreeView& a, const QuadtreeView& b) {
+  return [&a, &b](int na, int nb, int ca, int cb, int q, double va, double vb) {
+    const double ea = a.error(na, ca, q), eb = b.error(nb, cb, q);
+    return std::min({ea * eb, ea * std::abs(vb), eb * std::abs(va)});
+  };
 }
 
 // ---------------------------------------------------------------- SSE path
@@ -286,7 +271,7 @@ GroupConvolution convolve_groups_scalar(const QuadtreeView& a, const QuadtreeVie
   const int channels = std::max(a.shape().channels, b.shape().channels);
   const int groups = std::min(a.shape().groups, 3);
   ScalarSums sums;
-  descend_scalar(a, b, 0, 0, 0.25, channels, groups, sums);
+  detail::descend_scalar(a, b, 0, 0, 0.25, channels, groups, 0.0, float_pair_bound(a, b), sums);
   GroupConvolution result;
   for (int g = 0; g < groups; ++g)
     result.value[g] = channels_to_rgb(sums.value[g], channels);
@@ -298,7 +283,7 @@ Convolution convolve_scalar(const QuadtreeView& a, const QuadtreeView& b) {
   check_compatible(a.shape(), b.shape());
   const int channels = std::max(a.shape().channels, b.shape().channels);
   ScalarSums sums;
-  descend_scalar(a, b, 0, 0, 0.25, channels, 1, sums);
+  detail::descend_scalar(a, b, 0, 0, 0.25, channels, 1, 0.0, float_pair_bound(a, b), sums);
   return {channels_to_rgb(sums.value[0], channels), channels_to_rgb(sums.bound, channels)};
 }
 

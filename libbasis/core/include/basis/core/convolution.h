@@ -6,6 +6,7 @@
 #include <span>
 
 #include "basis/core/color.h"
+#include "basis/core/packed_tree.h"
 #include "basis/core/quadtree.h"
 
 namespace basis {
@@ -50,5 +51,33 @@ GroupConvolution convolve_groups_scalar(const QuadtreeView& a, const QuadtreeVie
 // Integral over [0,1]^2 of the product of several trees (group 0; at least one). The descent
 // stops on a quadrant as soon as all factors but one are leaves there.
 Rgb convolve_product(std::span<const QuadtreeView> factors);
+
+// ---------------------------------------------------------------- packed trees
+
+struct ConvolutionOptions {
+  // Accuracy-targeted descent: a pair of internal quadrants also stops (its product taken as
+  // a * b * area, the exact integral of the two quadrants' averages) once, in every channel, its
+  // certified bound is at most `accuracy` times its contribution |a b| area, so that the
+  // reported bound stays within about `accuracy` of the value. 0 descends to the leaves.
+  double accuracy = 0;
+};
+
+// The integral over [0,1]^2 of a * b (group 0 of both), as convolve() does for float trees, on
+// packed trees. The bound adds, on every quadrant where the descent stops,
+//   area * min(sa sb, [a linf] ea |b|, [b linf] eb |a|),
+// sa, sb the quadrants' RMS bounds (both kinds bound the RMS deviation; Cauchy-Schwarz bounds
+// the integral of (A - a)(B - b) by their product), ea, eb their largest-deviation bounds
+// (valid for non-negative functions). Channel counts equal or one of them 1.
+Convolution convolve(const PackedTreeView& a, const PackedTreeView& b,
+                     const ConvolutionOptions& options = {});
+
+// Portable scalar implementation (double accumulation), the reference for the SIMD path.
+Convolution convolve_scalar(const PackedTreeView& a, const PackedTreeView& b,
+                            const ConvolutionOptions& options = {});
+
+// Each channel group of packed tree a against group 0 of b in one descent (see the float
+// version); the bound is convolve()'s, for group 0. Descends to the leaves.
+GroupConvolution convolve_groups(const PackedTreeView& a, const PackedTreeView& b);
+GroupConvolution convolve_groups_scalar(const PackedTreeView& a, const PackedTreeView& b);
 
 }  // namespace basis

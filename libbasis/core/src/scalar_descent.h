@@ -1,0 +1,51 @@
+// The portable scalar convolution descent (double accumulation), shared by float and packed
+// trees and the reference for their SIMD paths. Private to the core library.
+#pragma once
+
+#include <cmath>
+
+namespace basis::detail {
+
+struct ScalarSums {
+  double value[3][3] = {};  // [group][channel]
+  double bound[3] = {};
+};
+
+// Groups 0 .. groups-1 of a against group 0 of b over the cell of nodes (na, nb), whose
+// quadrants have the given area. Where either quadrant is a leaf, or (accuracy > 0) where in
+// every channel the pair's bound pair_bound(na, nb, ca, cb, q, va, vb) is at most accuracy
+// times |va vb|, the pair adds area va vb and area times its bound; elsewhere it descends.
+template <typename A, typename B, typename PairBound>
+void descend_scalar(const A& a, const B& b, int na, int nb, double area, int channels, int groups,
+                    double accuracy, const PairBound& pair_bound, ScalarSums& sums) {
+  const int ca_count = a.shape().channels, cb_count = b.shape().channels;
+  for (int q = 0; q < 4; ++q) {
+    const int child_a = a.child(na, q), child_b = b.child(nb, q);
+    bool stop = !(child_a && child_b);
+    double va[3], vb[3], bound[3];
+    for (int c = 0; c < channels; ++c) {
+      const int ca = ca_count == 1 ? 0 : c, cb = cb_count == 1 ? 0 : c;
+      va[c] = a.value(na, 0, ca, q);
+      vb[c] = b.value(nb, 0, cb, q);
+      bound[c] = pair_bound(na, nb, ca, cb, q, va[c], vb[c]);
+    }
+    if (!stop && accuracy > 0) {
+      stop = true;
+      for (int c = 0; c < channels; ++c)
+        if (!(bound[c] <= accuracy * std::abs(va[c] * vb[c]))) stop = false;
+    }
+    if (!stop) {
+      descend_scalar(a, b, child_a, child_b, area / 4, channels, groups, accuracy, pair_bound,
+                     sums);
+      continue;
+    }
+    for (int c = 0; c < channels; ++c) {
+      const int ca = ca_count == 1 ? 0 : c;
+      for (int g = 0; g < groups; ++g)
+        sums.value[g][c] += a.value(na, g, ca, q) * vb[c] * area;
+      sums.bound[c] += area * bound[c];
+    }
+  }
+}
+
+}  // namespace basis::detail

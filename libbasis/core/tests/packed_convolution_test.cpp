@@ -1,0 +1,145 @@
+// Convolution of packed trees: the packed trees' product to half precision, the full-resolution
+// product within
+// the certified bound for every kind of bound, SIMD equal to scalar, accuracy-targeted descents
+// within their bounds and no looser than the target allows, channel groups.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "basis/core/convolution.h"
+#include "basis/core/dense.h"
+#include "basis/core/packed_tree.h"
+#include "basis/core/projection.h"
+#include "support/test_functions.h"
+
+namespace basis {
+namespace {
+
+using testing::test_functions;
+
+double relative_gap(double a, double b) {
+  return std::abs(a - b) / std::max({std::abs(a), std::abs(b), 1e-30});
+}
+
+struct Shapes {
+  int res_a, res_b, channels_a, channels_b;
+};
+
+class PackedConvolution : public ::testing::TestWithParam<Shapes> {};
+
+TEST_P(PackedConvolution, WithinTheBoundOfTheTexelsAndHalfPrecisionOfTheTrees) {
+  const Shapes k = GetParam();
+  const auto fa = test_functions(k.res_a, k.channels_a, 31);
+  const auto fb = test_functions(k.res_b, k.channels_b, 32);
+  for (const BoundKind kind_a : {BoundKind::l2, BoundKind::linf})
+    for (const BoundKind kind_b : {BoundKind::l2, BoundKind::linf})
+      for (const auto& [name_a, grid_a] : fa)
+        for (const auto& [name_b, grid_b] : fb) {
+          const std::string what = name_a + " x " + name_b + " kinds " +
+                                   std::to_string(int(kind_a)) + std::to_string(int(kind_b));
+          const PackedTree a = pack(project(grid_a, {.tolerance = 0.1}), kind_a);
+          const PackedTree b = pack(project(grid_b, {.tolerance = 0.1}), kind_b);
+          const Convolution simd = convolve(a.view(), b.view());
+          const Convolution scalar = convolve_scalar(a.view(), b.view());
+          // The dense product of the packed trees' reconstructions, to half precision: a
+          // descent that stops at a leaf of one tree takes the other's quadrant value, rounded
+          // to a half on its own rather than as the mean of its children's halves.
+          const Grid ra = reconstruct(a.view()), rb = reconstruct(b.view());
+          // The full-resolution product of the source texels, at the finer resolution.
+          const int n = std::max(k.res_a, k.res_b);
+          for (int c = 0; c < 3; ++c) {
+            const int ca = k.channels_a == 1 ? 0 : c, cb = k.channels_b == 1 ? 0 : c;
+            double packed = 0, texels = 0;
+            for (int y = 0; y < n; ++y)
+              for (int x = 0; x < n; ++x) {
+                const int sa = n / k.res_a, sb = n / k.res_b;
+                packed += double(ra.at(0, ca, x / sa, y / sa)) * rb.at(0, cb, x / sb, y / sb);
+                texels +=
+                    double(grid_a.at(0, ca, x / sa, y / sa)) * grid_b.at(0, cb, x / sb, y / sb);
+              }
+            packed /= double(n) * n;
+            texels /= double(n) * n;
+            EXPECT_LT(relative_gap(simd.value[c], packed), 1e-3) << what;
+            EXPECT_LE(std::abs(simd.value[c] - texels), simd.bound[c] * (1 + 1e-4) + 1e-6 * texels)
+                << what << " bound " << simd.bound[c];
+            EXPECT_LT(relative_gap(simd.value[c], scalar.value[c]), 1e-6) << what;
+            EXPECT_LT(relative_gap(simd.bound[c], scalar.bound[c]), 1e-5) << what;
+          }
+        }
+}
+
+// A targeted descent stops early on its own terms: its value stays within its bound of the
+// texels' product, and its bound within the target's share plus the full descent's bound.
+TEST_P(PackedConvolution, AccuracyTargetsKeepTheirBounds) {
+  const Shapes k = GetParam();
+  const auto fa = test_functions(k.res_a, k.channels_a, 33);
+  const auto fb = test_functions(k.res_b, k.channels_b, 34);
+  for (const auto& [name_a, grid_a] : fa)
+    for (const auto& [name_b, grid_b] : fb) {
+      const PackedTree a = pack(project(grid_a, {.tolerance = 0.02}), BoundKind::l2);
+      const PackedTree b = pack(project(grid_b, {.tolerance = 0.02}), BoundKind::l2);
+      const Convolution full = convolve(a.view(), b.view());
+      const int n = std::max(k.res_a, k.res_b), sa = n / k.res_a, sb = n / k.res_b;
+      for (const double accuracy : {0.001, 0.01, 0.1}) {
+        const Convolution simd = convolve(a.view(), b.view(), {.accuracy = accuracy});
+        const Convolution scalar = convolve_scalar(a.view(), b.view(), {.accuracy = accuracy});
+        for (int c = 0; c < 3; ++c) {
+          const int ca = k.channels_a == 1 ? 0 : c, cb = k.channels_b == 1 ? 0 : c;
+          double texels = 0;
+          for (int y = 0; y < n; ++y)
+            for (int x = 0; x < n; ++x)
+              texels += double(grid_a.at(0, ca, x / sa, y / sa)) * grid_b.at(0, cb, x / sb, y / sb);
+          texels /= double(n) * n;
+          for (const Convolution& r : {simd, scalar}) {
+            EXPECT_LE(std::abs(r.value[c] - texels), r.bound[c] * (1 + 1e-4) + 1e-6 * texels)
+                << name_a << " x " << name_b << " accuracy " << accuracy;
+            EXPECT_LE(r.bound[c], accuracy * r.value[c] * (1 + 1e-4) + full.bound[c] * (1 + 1e-4))
+                << name_a << " x " << name_b << " accuracy " << accuracy;
+          }
+        }
+      }
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(Shapes, PackedConvolution,
+                         ::testing::Values(Shapes{32, 32, 1, 1}, Shapes{32, 32, 3, 3},
+                                           Shapes{16, 64, 1, 3}, Shapes{64, 16, 3, 1},
+                                           Shapes{128, 128, 3, 3}),
+                         [](const auto& info) {
+                           const Shapes& k = info.param;
+                           return std::to_string(k.res_a) + "x" + std::to_string(k.res_b) + "_" +
+                                  std::to_string(k.channels_a) + "ch_" +
+                                  std::to_string(k.channels_b) + "ch";
+                         });
+
+TEST(PackedConvolution, GroupsEqualSeparateDenseProductsInSimdAndScalar) {
+  Grid a(32, 3, 2);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> unit(-1, 2);
+  for (float& t : a.texels)
+    t = unit(rng);
+  for (float& t : a.plane(0, 0))
+    t = std::abs(t);
+  const PackedTree ta = pack(project(a, {.tolerance = 0.1}), BoundKind::l2);
+  for (const auto& [name, grid_b] : test_functions(32, 3, 35)) {
+    const PackedTree tb = pack(project(grid_b, {.tolerance = 0.1}), BoundKind::l2);
+    const Grid ra = reconstruct(ta.view()), rb = reconstruct(tb.view());
+    const GroupConvolution simd = convolve_groups(ta.view(), tb.view());
+    const GroupConvolution scalar = convolve_groups_scalar(ta.view(), tb.view());
+    for (int g = 0; g < 2; ++g)
+      for (int c = 0; c < 3; ++c) {
+        double expected = 0;
+        for (int i = 0; i < 32 * 32; ++i)
+          expected += double(ra.plane(g, c)[i]) * rb.plane(0, c)[i];
+        expected /= 32 * 32;
+        EXPECT_NEAR(simd.value[g][c], expected, 1e-3 * std::abs(expected) + 1e-6) << name << g;
+        EXPECT_NEAR(scalar.value[g][c], simd.value[g][c], 1e-6 * std::abs(expected) + 1e-6)
+            << name << g;
+      }
+    EXPECT_EQ(simd.value[0], convolve(ta.view(), tb.view()).value);
+    EXPECT_EQ(simd.bound, convolve(ta.view(), tb.view()).bound);
+  }
+}
+
+}  // namespace
+}  // namespace basis
