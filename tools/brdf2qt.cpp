@@ -24,7 +24,7 @@ int main(int argc, char** argv) {
       "[r, g, b] or one number. An optional \"table\": {\"wo_res\", \"wi_res\", \"tolerance\"} "
       "block sets defaults that flags override.",
       "brdf2qt");
-  std::string spec_path, output;
+  std::string spec_path, output, bounds = "l2";
   int wo_res = 0, wi_res = 0, threads = 0;
   double tolerance = -1;
   bool absolute = false, quiet = false, no_tilt = false, json = false;
@@ -47,6 +47,11 @@ int main(int argc, char** argv) {
                  "mean (default 0.05)")
       ->check(CLI::NonNegativeNumber);
   app.add_flag("--absolute", absolute, "read --tolerance as an absolute value (1/sr)");
+  app.add_option("--bounds", bounds,
+                 "what the stored bounds bound: l2 (default), each quadrant's RMS deviation, "
+                 "for the tightest certified lookups; or linf, its largest deviation from every "
+                 "texel")
+      ->check(CLI::IsMember({"l2", "linf"}));
   app.add_flag("--no-tilt", no_tilt, "store f only, without the tilt derivatives");
   app.add_option("--threads", threads, "worker threads (default: all cores)")
       ->check(CLI::Range(1, 1024));
@@ -65,6 +70,7 @@ int main(int argc, char** argv) {
     options.projection.tolerance = tolerance >= 0 ? tolerance : spec.tolerance.value_or(0.05);
     if (absolute) options.projection.mode = basis::ProjectionOptions::Mode::absolute;
     options.tilt_derivatives = !no_tilt;
+    options.bounds = bounds == "linf" ? basis::BoundKind::linf : basis::BoundKind::l2;
     if (output.empty())
       output = std::filesystem::path(spec_path).replace_extension(".qt").filename().string();
 
@@ -81,7 +87,8 @@ int main(int argc, char** argv) {
                                                {"wi_res", options.wi_resolution},
                                                {"tolerance", options.projection.tolerance},
                                                {"mode", absolute ? "absolute" : "relative"},
-                                               {"tilt_derivatives", options.tilt_derivatives}};
+                                               {"tilt_derivatives", options.tilt_derivatives},
+                                               {"bounds", bounds}};
     const auto bytes =
         basis::encode_brdf_table(table.view(), spec.model, spec.text, options.projection,
                                  {"brdf2qt", basis::kVersion, parameters.dump(), {spec_path}});

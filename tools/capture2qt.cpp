@@ -38,7 +38,7 @@ int main(int argc, char** argv) {
       "at pixel column x, row y) into a single-tree .qt file.",
       "capture2qt");
   std::string env_path, env_constant, scene_path, at, normal_text = "0,0,1", points_path, output,
-                                                      dump, image_path;
+                                                      dump, image_path, bounds = "l2";
   double env_rotate = 0, tolerance = 0.05;
   long long sample = 0;
   std::uint64_t seed = 1;
@@ -79,6 +79,11 @@ int main(int argc, char** argv) {
                  "mean, lights kept apart included (default 0.05)")
       ->check(CLI::NonNegativeNumber);
   app.add_flag("--absolute", absolute, "read --tolerance as an absolute radiance");
+  app.add_option("--bounds", bounds,
+                 "what the stored bounds bound: l2 (default), each quadrant's RMS deviation, "
+                 "for the tightest certified lookups; or linf, its largest deviation from every "
+                 "texel")
+      ->check(CLI::IsMember({"l2", "linf"}));
   app.add_option("-o,--output", output,
                  "output .qt file (default captures.qt, or the image's name with .qt); a .qt "
                  "file holds at most 2 GiB, capturing stops with an error beyond");
@@ -102,6 +107,8 @@ int main(int argc, char** argv) {
     if (strata * strata != spp)
       throw UsageError("--spp must be a square number (1, 4, 9, 16, ...), got " +
                        std::to_string(spp));
+    const basis::BoundKind bound_kind =
+        bounds == "linf" ? basis::BoundKind::linf : basis::BoundKind::l2;
     basis::CaptureRecipe recipe;
     recipe.projection.tolerance = tolerance;
     if (absolute) recipe.projection.mode = basis::ProjectionOptions::Mode::absolute;
@@ -124,7 +131,7 @@ int main(int argc, char** argv) {
                                                  {"mode", absolute ? "absolute" : "relative"}};
       basis::write_qt(
           output,
-          basis::encode_tree(tree.view(), recipe.projection,
+          basis::encode_tree(basis::pack(tree, bound_kind).view(), recipe.projection,
                              {"capture2qt", basis::kVersion, parameters.dump(), {image_path}}));
       if (!quiet)
         std::printf("%s: one capture of %d x %d texels, %d nodes\n", output.c_str(),
@@ -196,6 +203,7 @@ int main(int argc, char** argv) {
     basis::CaptureSetOptions options;
     options.capture = recipe.options;
     options.projection = recipe.projection;
+    options.bounds = bound_kind;
     if (!dump.empty()) {
       if (!std::filesystem::is_directory(dump))
         throw basis::FileError(dump + ": not a directory (--dump writes into an existing one)");

@@ -42,7 +42,7 @@ int main(int argc, char** argv) {
         throw basis::cli::UsageError("--entry and --index choose the tree drawn by --png");
       return;
     }
-    basis::QuadtreeView tree = file.tree();
+    basis::PackedTreeView tree = file.tree();
     if (file.kind() == basis::QtKind::brdf_table) {
       const basis::BrdfTableView table = file.brdf_table();
       int i = (table.wo_resolution - 1) / 2, j = i;

@@ -74,7 +74,7 @@ FileConvolution::FileConvolution(const QtFile& a, const QtFile& b, const Shading
 Convolution FileConvolution::operator()(std::size_t k) const {
   if (dense_table_) {
     const auto lights = other_->kind() == QtKind::capture_set ? other_->captures().lights_of(k)
-                                                               : std::span<const DirectionalLight>();
+                                                              : std::span<const DirectionalLight>();
     return shade_dense(*dense_table_, dense_b_[k], lights, shading_.light_brdf);
   }
   if (!dense_a_.empty()) {

@@ -20,7 +20,10 @@ namespace basis {
 namespace fb = basis::format;
 
 static_assert(sizeof(Quad) == sizeof(fb::Quad) && alignof(Quad) == alignof(fb::Quad));
-static_assert(sizeof(TreeExtent) == sizeof(fb::TreeExtent));
+static_assert(sizeof(TreeExtent) == sizeof(fb::PackedExtent) &&
+              alignof(TreeExtent) == alignof(fb::PackedExtent));
+static_assert(std::endian::native == std::endian::little,
+              "packed nodes hold halves and bytes inside little-endian words");
 static_assert(sizeof(Vec3) == sizeof(fb::Vec3) && alignof(Vec3) == alignof(fb::Vec3));
 static_assert(sizeof(DirectionalLight) == sizeof(fb::Light) &&
               alignof(DirectionalLight) == alignof(fb::Light));
@@ -300,7 +303,7 @@ BrdfTableView QtFile::brdf_table() const {
 }
 
 TreeSetView QtFile::verify_tree_set(const void* set_pointer, const std::string& what,
-                                    ProjectionOptions* projection) const {
+                                    ProjectionOptions* projection) {
   const auto* set = static_cast<const fb::TreeSet*>(set_pointer);
   if (!set) fail(name_, "no " + what);
   const QuadtreeShape shape{set->resolution(), set->channels(), set->groups()};
@@ -326,13 +329,92 @@ TreeSetView QtFile::verify_tree_set(const void* set_pointer, const std::string& 
     fail(name_, what + ": max depth " + std::to_string(p.max_depth) + " outside 0.." +
                     std::to_string(levels));
   if (projection) *projection = p;
+  return version_ >= 3 ? verify_packed_trees(set, what, shape)
+                       : verify_and_pack_float_trees(set, what, shape);
+}
 
-  const auto extents = as_span<TreeExtent>(set->extents(), name_, "tree extents");
+TreeSetView QtFile::verify_packed_trees(const void* set_pointer, const std::string& what,
+                                        const QuadtreeShape& s) const {
+  const auto* set = static_cast<const fb::TreeSet*>(set_pointer);
+  if (set->bounds() != fb::BoundKind::L2 && set->bounds() != fb::BoundKind::Linf)
+    fail(name_, what + ": unknown bound kind " + std::to_string(int(set->bounds())));
+  const PackedShape shape{s.resolution, s.channels, s.groups,
+                          set->bounds() == fb::BoundKind::L2 ? BoundKind::l2 : BoundKind::linf};
+  const auto extents = as_span<TreeExtent>(set->packed_extents(), name_, "tree extents");
+  std::span<const std::uint32_t> words;
+  if (set->words()) words = {set->words()->data(), set->words()->size()};
+  if (extents.empty()) fail(name_, "no " + what);
+  std::uint64_t total = 0;
+  for (const TreeExtent& e : extents) {
+    if (e.first_node != total) fail(name_, what + ": tree extents are not contiguous");
+    if (e.node_count == 0) fail(name_, what + ": a tree has no nodes");
+    if (!(e.scales.value_scale > 0 && e.scales.value_scale < INFINITY) ||
+        !(e.scales.bound_scale > 0 && e.scales.bound_scale < INFINITY))
+      fail(name_, what + ": a tree's scales are not finite positive numbers");
+    total += e.node_count;
+  }
+  const std::uint64_t per_node = std::uint64_t(shape.words_per_node());
+  if (words.size() != total * per_node)
+    fail(name_, what + ": node data hold " + std::to_string(words.size()) + " words, " +
+                    std::to_string(total * per_node) + " expected");
+  const TreeSetView view(shape, extents, words);
+  const int levels = std::countr_zero(unsigned(shape.resolution));
+  std::vector<std::uint8_t> depth;
+  for (std::size_t i = 0; i < view.size(); ++i) {
+    const PackedTreeView tree = view.tree(i);
+    const int count = tree.node_count();
+    // Breadth first: node n's children are the next block after those of the nodes before it.
+    depth.assign(std::size_t(count), 0);
+    std::uint64_t next = 1;
+    for (int n = 0; n < count; ++n) {
+      if (std::uint64_t(n) >= next)
+        fail(name_, what + ": tree " + std::to_string(i) + ": node " + std::to_string(n) +
+                        " is unreachable");
+      const std::uint32_t link = tree.link(n);
+      if (link == 0) continue;
+      if ((link & 15u) == 0 || link >> 4 != next)
+        fail(name_, what + ": tree " + std::to_string(i) + ": node " + std::to_string(n) +
+                        " links to node " + std::to_string(link >> 4) + " (children follow " +
+                        "breadth first, expected " + std::to_string(next) + ")");
+      const int children = std::popcount(link & 15u);
+      if (next + std::uint64_t(children) > std::uint64_t(count))
+        fail(name_, what + ": tree " + std::to_string(i) + ": node " + std::to_string(n) +
+                        " links past the tree's " + std::to_string(count) + " nodes");
+      if (depth[n] + 1 >= levels)
+        fail(name_, what + ": tree " + std::to_string(i) + ": deeper than its resolution allows (" +
+                        std::to_string(levels) + " levels)");
+      for (int k = 0; k < children; ++k)
+        depth[next + k] = std::uint8_t(depth[n] + 1);
+      next += std::uint64_t(children);
+    }
+    if (next != std::uint64_t(count))
+      fail(name_, what + ": tree " + std::to_string(i) + ": " + std::to_string(count - next) +
+                      " nodes are unreachable");
+    // Values: halves that are neither infinite nor NaN (exponent bits all ones).
+    const int halves = 2 * shape.groups * shape.channels * 2;
+    for (int n = 0; n < count; ++n) {
+      const auto* h = reinterpret_cast<const std::uint16_t*>(tree.node(n) + 1);
+      for (int k = 0; k < halves; ++k)
+        if ((h[k] & 0x7c00u) == 0x7c00u)
+          fail(name_, what + ": a node holds a NaN or infinite value");
+    }
+  }
+  return view;
+}
+
+TreeSetView QtFile::verify_and_pack_float_trees(const void* set_pointer, const std::string& what,
+                                                const QuadtreeShape& shape) {
+  const auto* set = static_cast<const fb::TreeSet*>(set_pointer);
+  const int levels = std::countr_zero(unsigned(shape.resolution));
+  struct FloatExtent {
+    std::uint32_t first_node, node_count;
+  };
+  const auto extents = as_span<FloatExtent>(set->extents(), name_, "tree extents");
   const auto nodes = as_span<Quad>(set->nodes(), name_, "tree nodes");
   const auto errors = as_span<Quad>(set->errors(), name_, "tree error bounds");
   if (extents.empty()) fail(name_, "no " + what);
   std::uint64_t total = 0;
-  for (const TreeExtent& e : extents) {
+  for (const FloatExtent& e : extents) {
     if (e.first_node != total) fail(name_, what + ": tree extents are not contiguous");
     if (e.node_count == 0) fail(name_, what + ": a tree has no nodes");
     total += e.node_count;
@@ -343,18 +425,29 @@ TreeSetView QtFile::verify_tree_set(const void* set_pointer, const std::string& 
   if (errors.size() != total * shape.channels)
     fail(name_, what + ": error bounds hold " + std::to_string(errors.size()) + " quads, " +
                     std::to_string(total * shape.channels) + " expected");
-  const TreeSetView view(shape, extents, nodes, errors);
-  std::vector<std::uint8_t> depth;
-  for (std::size_t i = 0; i < view.size(); ++i)
-    if (const std::string problem = check_tree(view.tree(i), levels, depth); !problem.empty())
-      fail(name_, what + ": tree " + std::to_string(i) + ": " + problem);
   if (!values_finite(nodes, shape.stride()))
     fail(name_, what + ": a node holds a NaN or infinite value");
   if (!all_finite(lanes(errors))) fail(name_, what + ": an error bound is NaN or infinite");
   for (const Quad& q : errors)
     for (float e : q.lane)
       if (e < 0) fail(name_, what + ": an error bound is negative");
-  return view;
+  // Each tree checked, then packed with its error bounds (linf).
+  TreeSet packed(PackedShape{shape.resolution, shape.channels, shape.groups, BoundKind::linf});
+  std::vector<std::uint8_t> depth;
+  for (std::size_t i = 0; i < extents.size(); ++i) {
+    const FloatExtent& e = extents[i];
+    Quadtree tree;
+    tree.shape = shape;
+    tree.nodes.assign(nodes.begin() + std::size_t(e.first_node) * shape.stride(),
+                      nodes.begin() + std::size_t(e.first_node + e.node_count) * shape.stride());
+    tree.errors.assign(errors.begin() + std::size_t(e.first_node) * shape.channels,
+                       errors.begin() + std::size_t(e.first_node + e.node_count) * shape.channels);
+    if (const std::string problem = check_tree(tree.view(), levels, depth); !problem.empty())
+      fail(name_, what + ": tree " + std::to_string(i) + ": " + problem);
+    packed.append(pack(tree, BoundKind::linf).view());
+  }
+  converted_.push_back(std::move(packed));
+  return converted_.back().view();
 }
 
 std::string QtFile::brdf_model() const {
@@ -392,17 +485,22 @@ flatbuffers::Offset<fb::TreeSet> build_tree_set(flatbuffers::FlatBufferBuilder& 
                                                 const TreeSetView& trees,
                                                 const ProjectionOptions& projection) {
   const auto extents = b.CreateVectorOfStructs(
-      reinterpret_cast<const fb::TreeExtent*>(trees.extents().data()), trees.extents().size());
-  const auto nodes = b.CreateVectorOfStructs(
-      reinterpret_cast<const fb::Quad*>(trees.nodes().data()), trees.nodes().size());
-  const auto errors = b.CreateVectorOfStructs(
-      reinterpret_cast<const fb::Quad*>(trees.errors().data()), trees.errors().size());
-  const QuadtreeShape& s = trees.shape();
-  return fb::CreateTreeSet(b, s.resolution, s.channels, s.groups, projection.tolerance,
-                           projection.mode == ProjectionOptions::Mode::relative
-                               ? fb::ToleranceMode::Relative
-                               : fb::ToleranceMode::Absolute,
-                           projection.max_depth, extents, nodes, errors);
+      reinterpret_cast<const fb::PackedExtent*>(trees.extents().data()), trees.extents().size());
+  const auto words = b.CreateVector(trees.words().data(), trees.words().size());
+  const PackedShape& s = trees.shape();
+  fb::TreeSetBuilder set(b);
+  set.add_resolution(s.resolution);
+  set.add_channels(s.channels);
+  set.add_groups(s.groups);
+  set.add_tolerance(projection.tolerance);
+  set.add_tolerance_mode(projection.mode == ProjectionOptions::Mode::relative
+                             ? fb::ToleranceMode::Relative
+                             : fb::ToleranceMode::Absolute);
+  set.add_max_depth(projection.max_depth);
+  set.add_bounds(s.bounds == BoundKind::l2 ? fb::BoundKind::L2 : fb::BoundKind::Linf);
+  set.add_packed_extents(extents);
+  set.add_words(words);
+  return set.Finish();
 }
 
 flatbuffers::Offset<fb::Provenance> build_provenance(flatbuffers::FlatBufferBuilder& b,
@@ -419,7 +517,7 @@ std::vector<std::byte> finish(flatbuffers::FlatBufferBuilder& b, fb::Kind kind,
                               flatbuffers::Offset<fb::BrdfTable> table,
                               flatbuffers::Offset<fb::CaptureSet> captures,
                               flatbuffers::Offset<fb::Provenance> provenance,
-                              std::uint32_t version = 1) {
+                              std::uint32_t version = kQtFormatVersion) {
   const auto root = fb::CreateFile(b, version, kind, fb::Mapping::CosineConcentric, trees, table,
                                    captures, provenance);
   fb::FinishFileBuffer(b, root);
@@ -436,18 +534,18 @@ std::vector<std::byte> finish(flatbuffers::FlatBufferBuilder& b, fb::Kind kind,
 
 void check_encodable(const TreeSetView& trees) {
   if (trees.size() == 0) throw std::invalid_argument("nothing to encode: no trees");
-  if (trees.nodes().size_bytes() + trees.errors().size_bytes() > kQtMaxFileBytes)
+  if (trees.bytes() > kQtMaxFileBytes)
     throw std::invalid_argument("trees exceed the 2 GiB limit of one .qt file");
 }
 
 }  // namespace
 
-std::vector<std::byte> encode_tree(const QuadtreeView& tree, const ProjectionOptions& projection,
+std::vector<std::byte> encode_tree(const PackedTreeView& tree, const ProjectionOptions& projection,
                                    const Provenance& provenance) {
-  const TreeExtent extent{0, std::uint32_t(tree.node_count())};
-  const TreeSetView set(tree.shape(), {&extent, 1}, tree.nodes(), tree.errors());
+  const TreeExtent extent{0, std::uint32_t(tree.node_count()), tree.scales()};
+  const TreeSetView set(tree.shape(), {&extent, 1}, tree.words());
   check_encodable(set);
-  flatbuffers::FlatBufferBuilder b(tree.nodes().size_bytes() + tree.errors().size_bytes() + 1024);
+  flatbuffers::FlatBufferBuilder b(set.bytes() + 1024);
   const auto trees = build_tree_set(b, set, projection);
   const auto prov = build_provenance(b, provenance);
   return finish(b, fb::Kind::Tree, trees, 0, 0, prov);
@@ -462,9 +560,7 @@ std::vector<std::byte> encode_brdf_table(const BrdfTableView& table, const std::
     throw std::invalid_argument("BRDF table entries do not match its resolution");
   if (table.has_tilt() && table.tilt.size() != table.trees.size())
     throw std::invalid_argument("BRDF table tilt trees do not match its entries");
-  flatbuffers::FlatBufferBuilder b(
-      table.trees.nodes().size_bytes() + table.trees.errors().size_bytes() +
-      table.tilt.nodes().size_bytes() + table.tilt.errors().size_bytes() + 4096);
+  flatbuffers::FlatBufferBuilder b(table.trees.bytes() + table.tilt.bytes() + 4096);
   const auto trees = build_tree_set(b, table.trees, projection);
   flatbuffers::Offset<fb::TreeSet> tilt = 0;
   if (table.has_tilt()) tilt = build_tree_set(b, table.tilt, projection);
@@ -489,10 +585,9 @@ std::vector<std::byte> encode_capture_set(const CaptureSetView& captures,
       (offsets.size() != captures.size() + 1 || offsets.front() != 0 ||
        offsets.back() != captures.lights.size() || !std::is_sorted(offsets.begin(), offsets.end())))
     throw std::invalid_argument("capture light offsets do not match the captures and lights");
-  flatbuffers::FlatBufferBuilder b(
-      captures.trees.nodes().size_bytes() + captures.trees.errors().size_bytes() +
-      captures.size() * 3 * sizeof(Vec3) + captures.lights.size_bytes() +
-      captures.light_offsets.size_bytes() + 4096);
+  flatbuffers::FlatBufferBuilder b(captures.trees.bytes() + captures.size() * 3 * sizeof(Vec3) +
+                                   captures.lights.size_bytes() +
+                                   captures.light_offsets.size_bytes() + 4096);
   const auto trees = build_tree_set(b, captures.trees, projection);
   auto points = [&](std::span<const Vec3> v) {
     return b.CreateVectorOfStructs(reinterpret_cast<const fb::Vec3*>(v.data()), v.size());
@@ -502,16 +597,14 @@ std::vector<std::byte> encode_capture_set(const CaptureSetView& captures,
   const auto tangents = points(captures.tangents);
   flatbuffers::Offset<flatbuffers::Vector<const fb::Light*>> lights = 0;
   flatbuffers::Offset<flatbuffers::Vector<std::uint32_t>> light_offsets = 0;
-  const bool with_lights = !captures.lights.empty();  // no lights: written as version 1
-  if (with_lights) {
+  if (!captures.lights.empty()) {
     lights = b.CreateVectorOfStructs(reinterpret_cast<const fb::Light*>(captures.lights.data()),
                                      captures.lights.size());
     light_offsets = b.CreateVector(captures.light_offsets.data(), captures.light_offsets.size());
   }
   const auto info = fb::CreateCaptureSet(b, positions, normals, tangents, lights, light_offsets);
   const auto prov = build_provenance(b, provenance);
-  // Version 2 only when the set holds lights, so that older readers take the rest.
-  return finish(b, fb::Kind::CaptureSet, trees, 0, info, prov, with_lights ? 2 : 1);
+  return finish(b, fb::Kind::CaptureSet, trees, 0, info, prov);
 }
 
 void write_qt(const std::string& path, std::span<const std::byte> encoded) {

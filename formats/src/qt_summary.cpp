@@ -14,7 +14,7 @@ using nlohmann::ordered_json;
 
 ordered_json summarise(const QtFile& file) {
   const TreeSetView trees = file.trees();
-  const QuadtreeShape& s = trees.shape();
+  const PackedShape& s = trees.shape();
   ordered_json j;
   j["file"] = file.name();
   j["bytes"] = file.byte_size();
@@ -25,6 +25,8 @@ ordered_json summarise(const QtFile& file) {
   j["resolution"] = s.resolution;
   j["channels"] = s.channels;
   j["groups"] = s.groups;
+  j["bounds"] = s.bounds == BoundKind::l2 ? "l2 (RMS deviation)" : "linf (largest deviation)";
+  j["zero_copy"] = file.zero_copy();
   const ProjectionOptions p = file.projection();
   j["tolerance"] = {{"value", p.tolerance},
                     {"mode", p.mode == ProjectionOptions::Mode::relative ? "relative" : "absolute"},
@@ -33,7 +35,7 @@ ordered_json summarise(const QtFile& file) {
   std::size_t total = 0, smallest = SIZE_MAX, largest = 0;
   std::vector<long long> histogram;
   for (std::size_t i = 0; i < trees.size(); ++i) {
-    const QuadtreeView t = trees.tree(i);
+    const PackedTreeView t = trees.tree(i);
     const std::size_t n = std::size_t(t.node_count());
     total += n;
     smallest = std::min(smallest, n);
@@ -48,7 +50,7 @@ ordered_json summarise(const QtFile& file) {
                 {"mean", double(total) / double(trees.size())},
                 {"max", largest},
                 {"per_level", histogram}};
-  const double tree_bytes = double(trees.nodes().size_bytes() + trees.errors().size_bytes());
+  const double tree_bytes = double(trees.bytes());
   const double dense_bytes =
       double(trees.size()) * s.resolution * s.resolution * s.channels * s.groups * sizeof(float);
   j["storage"] = {{"tree_bytes", tree_bytes},
@@ -56,8 +58,7 @@ ordered_json summarise(const QtFile& file) {
                   {"compression", dense_bytes / tree_bytes}};
   if (file.kind() == QtKind::brdf_table) {
     const BrdfTableView table = file.brdf_table();
-    const double tilt_bytes =
-        double(table.tilt.nodes().size_bytes() + table.tilt.errors().size_bytes());
+    const double tilt_bytes = double(table.tilt.bytes());
     j["brdf_table"] = {{"wo_resolution", table.wo_resolution},
                        {"model", file.brdf_model()},
                        {"spec", file.brdf_spec()},

@@ -28,12 +28,16 @@ Provenance test_provenance() {
   return {"format_test", "1", R"({"seed": 1})", {"a.json", "b.exr"}};
 }
 
-Quadtree sample_tree(int n, int channels, int which, double tolerance = 0.05) {
+Quadtree sample_float_tree(int n, int channels, int which, double tolerance = 0.05) {
   return project(testing::test_functions(n, channels, 17)[which].grid, {.tolerance = tolerance});
 }
 
+PackedTree sample_tree(int n, int channels, int which, double tolerance = 0.05) {
+  return pack(sample_float_tree(n, channels, which, tolerance));
+}
+
 TreeSet sample_set(int count, int n, int channels) {
-  TreeSet set({n, channels, 1});
+  TreeSet set(PackedShape{n, channels, 1, BoundKind::l2});
   for (int i = 0; i < count; ++i)
     set.append(sample_tree(n, channels, i % 6, 0.01 + 0.02 * i).view());
   return set;
@@ -61,8 +65,8 @@ CaptureSet sample_captures(int count) {
 BrdfTable sample_table(int m) {
   BrdfTable t;
   t.wo_resolution = m;
-  t.trees = TreeSet({16, 1, 1});
-  t.tilt = TreeSet({16, 1, 2});
+  t.trees = TreeSet(PackedShape{16, 1, 1, BoundKind::l2});
+  t.tilt = TreeSet(PackedShape{16, 1, 2, BoundKind::l2});
   for (int k = 0; k < m * m; ++k) {
     std::mt19937 rng(k);
     std::uniform_real_distribution<float> unit(0, 1);
@@ -71,15 +75,15 @@ BrdfTable sample_table(int m) {
       v = unit(rng) * (k % 3 == 0 ? 0.01f : 1.0f);
     for (float& v : d.texels)
       v = unit(rng) - 0.5f;
-    t.trees.append(project(g, {.tolerance = 0.1}).view());
-    t.tilt.append(project(d, {.tolerance = 0.1}).view());
+    t.trees.append(pack(project(g, {.tolerance = 0.1})).view());
+    t.tilt.append(pack(project(d, {.tolerance = 0.1})).view());
   }
   t.model = "phong";
   t.spec = R"({"model": "phong", "exponent": 100})";
   return t;
 }
 
-bool same_bytes(std::span<const Quad> a, std::span<const Quad> b) {
+bool same_words(std::span<const std::uint32_t> a, std::span<const std::uint32_t> b) {
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size_bytes()) == 0;
 }
 
@@ -106,18 +110,25 @@ std::string load_error(std::span<const std::byte> bytes) {
 }
 
 // The bytes of a tree or a capture set written with the schema alone, without the library
-// writer's checks (as a damaged or foreign writer could).
-std::vector<std::byte> unchecked_file(const TreeSetView& trees, const CaptureSetView* captures) {
+// writer's checks (as a damaged or foreign writer could), at the current version.
+std::vector<std::byte> unchecked_file(const TreeSetView& trees, const CaptureSetView* captures,
+                                      std::uint8_t bound_kind = 0) {
   flatbuffers::FlatBufferBuilder b;
   auto structs = [&]<typename F, typename T>(std::span<const T> v) {
     return b.CreateVectorOfStructs(reinterpret_cast<const F*>(v.data()), v.size());
   };
-  const QuadtreeShape& s = trees.shape();
-  const auto set = format::CreateTreeSet(b, s.resolution, s.channels, s.groups, 0.05,
-                                         format::ToleranceMode::Relative, 0,
-                                         structs.operator()<format::TreeExtent>(trees.extents()),
-                                         structs.operator()<format::Quad>(trees.nodes()),
-                                         structs.operator()<format::Quad>(trees.errors()));
+  const PackedShape& s = trees.shape();
+  const auto extents = structs.operator()<format::PackedExtent>(trees.extents());
+  const auto words = b.CreateVector(trees.words().data(), trees.words().size());
+  format::TreeSetBuilder set(b);
+  set.add_resolution(s.resolution);
+  set.add_channels(s.channels);
+  set.add_groups(s.groups);
+  set.add_tolerance(0.05);
+  set.add_bounds(format::BoundKind(bound_kind));
+  set.add_packed_extents(extents);
+  set.add_words(words);
+  const auto set_offset = set.Finish();
   flatbuffers::Offset<format::CaptureSet> info = 0;
   if (captures)
     info = format::CreateCaptureSet(
@@ -126,9 +137,27 @@ std::vector<std::byte> unchecked_file(const TreeSetView& trees, const CaptureSet
         structs.operator()<format::Vec3>(captures->tangents),
         structs.operator()<format::Light>(captures->lights),
         b.CreateVector(captures->light_offsets.data(), captures->light_offsets.size()));
-  const auto root = format::CreateFile(b, captures ? 2 : 1,
+  const auto root = format::CreateFile(b, kQtFormatVersion,
                                        captures ? format::Kind::CaptureSet : format::Kind::Tree,
-                                       format::Mapping::CosineConcentric, set, 0, info);
+                                       format::Mapping::CosineConcentric, set_offset, 0, info);
+  format::FinishFileBuffer(b, root);
+  const auto* data = reinterpret_cast<const std::byte*>(b.GetBufferPointer());
+  return {data, data + b.GetSize()};
+}
+
+// A file of version 1 or 2 (float trees: 16-byte quads of links, values and error bounds).
+std::vector<std::byte> old_version_file(const Quadtree& tree, std::uint32_t version) {
+  flatbuffers::FlatBufferBuilder b;
+  const format::TreeExtent extent(0, std::uint32_t(tree.node_count()));
+  const auto trees = format::CreateTreeSet(
+      b, tree.shape.resolution, tree.shape.channels, tree.shape.groups, 0.05,
+      format::ToleranceMode::Relative, 0, b.CreateVectorOfStructs(&extent, 1),
+      b.CreateVectorOfStructs(reinterpret_cast<const format::Quad*>(tree.nodes.data()),
+                              tree.nodes.size()),
+      b.CreateVectorOfStructs(reinterpret_cast<const format::Quad*>(tree.errors.data()),
+                              tree.errors.size()));
+  const auto root =
+      format::CreateFile(b, version, format::Kind::Tree, format::Mapping::CosineConcentric, trees);
   format::FinishFileBuffer(b, root);
   const auto* data = reinterpret_cast<const std::byte*>(b.GetBufferPointer());
   return {data, data + b.GetSize()};
@@ -153,20 +182,21 @@ std::string refused(const std::vector<std::byte>& unchecked, const Encode& encod
 
 TEST(QtFormat, TreeRoundTripKeepsBitsAndConvolution) {
   TempDir dir;
-  const Quadtree tree = sample_tree(64, 3, 1);
+  const PackedTree tree = sample_tree(64, 3, 1);
   const ProjectionOptions projection{.tolerance = 0.05, .max_depth = 5};
   write_qt(dir.file("tree.qt"), encode_tree(tree.view(), projection, test_provenance()));
   const QtFile file = QtFile::load(dir.file("tree.qt"));
   EXPECT_EQ(file.kind(), QtKind::tree);
-  EXPECT_EQ(file.format_version(), 1u);  // nothing in it needs version 2
-  EXPECT_TRUE(same_bytes(file.tree().nodes(), tree.nodes));
-  EXPECT_TRUE(same_bytes(file.tree().errors(), tree.errors));
+  EXPECT_EQ(file.format_version(), kQtFormatVersion);
+  EXPECT_TRUE(same_words(file.tree().words(), tree.words));
   EXPECT_EQ(file.tree().shape(), tree.shape);
+  EXPECT_EQ(file.tree().scales(), tree.scales);
   EXPECT_EQ(file.projection().tolerance, 0.05);
   EXPECT_EQ(file.projection().max_depth, 5);
-  // Zero copy: the loaded tree's nodes live inside the file's buffer, aligned for SSE.
-  EXPECT_EQ(reinterpret_cast<std::uintptr_t>(file.tree().nodes().data()) % 16, 0u);
-  const Quadtree other = sample_tree(32, 3, 2);
+  // Zero copy: the loaded tree's nodes live inside the file's memory map, word aligned.
+  EXPECT_TRUE(file.zero_copy());
+  EXPECT_EQ(reinterpret_cast<std::uintptr_t>(file.tree().words().data()) % 4, 0u);
+  const PackedTree other = sample_tree(32, 3, 2);
   const Convolution a = convolve(tree.view(), other.view());
   const Convolution b = convolve(file.tree(), other.view());
   EXPECT_EQ(a.value, b.value);
@@ -180,6 +210,21 @@ TEST(QtFormat, TreeRoundTripKeepsBitsAndConvolution) {
             encode_tree(file.tree(), file.projection(), file.provenance()));
 }
 
+// Files of versions 1 and 2 hold float trees: they load, packed with their error bounds, to
+// the same trees as packing the float trees directly.
+TEST(QtFormat, OlderVersionsLoadPackedWithTheirErrorBounds) {
+  const Quadtree tree = sample_float_tree(32, 3, 1);
+  const PackedTree expected = pack(tree, BoundKind::linf);
+  for (const std::uint32_t version : {1u, 2u}) {
+    const QtFile file = QtFile::from_bytes(old_version_file(tree, version), "old.qt");
+    EXPECT_EQ(file.format_version(), version);
+    EXPECT_FALSE(file.zero_copy());
+    EXPECT_EQ(file.tree().shape(), expected.shape);
+    EXPECT_EQ(file.tree().scales(), expected.scales);
+    EXPECT_TRUE(same_words(file.tree().words(), expected.words));
+  }
+}
+
 TEST(QtFormat, BrdfTableRoundTrip) {
   TempDir dir;
   const BrdfTable table = sample_table(4);
@@ -191,10 +236,10 @@ TEST(QtFormat, BrdfTableRoundTrip) {
   EXPECT_EQ(loaded.wo_resolution, 4);
   EXPECT_EQ(file.brdf_model(), "phong");
   EXPECT_EQ(file.brdf_spec(), table.spec);
-  EXPECT_TRUE(same_bytes(loaded.trees.nodes(), table.trees.view().nodes()));
-  const Quadtree light = sample_tree(16, 1, 0);
+  EXPECT_TRUE(same_words(loaded.trees.words(), table.trees.view().words()));
+  const PackedTree light = sample_tree(16, 1, 0);
   ASSERT_TRUE(loaded.has_tilt());
-  EXPECT_TRUE(same_bytes(loaded.tilt.nodes(), table.tilt.view().nodes()));
+  EXPECT_TRUE(same_words(loaded.tilt.words(), table.tilt.view().words()));
   for (int j = 0; j < 4; ++j)
     for (int i = 0; i < 4; ++i) {
       EXPECT_EQ(convolve(loaded.entry(i, j), light.view()).value,
@@ -211,14 +256,14 @@ TEST(QtFormat, CaptureSetRoundTrip) {
   write_qt(dir.file("c.qt"), encode_capture_set(captures.view(), {}, test_provenance()));
   const QtFile file = QtFile::load(dir.file("c.qt"));
   ASSERT_EQ(file.kind(), QtKind::capture_set);
-  EXPECT_EQ(file.format_version(), 2u);  // it holds lights
+  EXPECT_EQ(file.format_version(), kQtFormatVersion);
   const CaptureSetView loaded = file.captures();
   ASSERT_EQ(loaded.size(), 12u);
   for (std::size_t i = 0; i < 12; ++i) {
     EXPECT_EQ(loaded.positions[i], captures.positions[i]);
     EXPECT_EQ(loaded.normals[i], captures.normals[i]);
     EXPECT_EQ(loaded.tangents[i], captures.tangents[i]);
-    EXPECT_TRUE(same_bytes(loaded.trees.tree(i).nodes(), captures.trees.tree(i).nodes()));
+    EXPECT_TRUE(same_words(loaded.trees.tree(i).words(), captures.trees.tree(i).words()));
     const Convolution a = convolve(loaded.trees.tree(i), loaded.trees.tree((i + 1) % 12));
     const Convolution b = convolve(captures.trees.tree(i), captures.trees.tree((i + 1) % 12));
     EXPECT_EQ(a.value, b.value);
@@ -237,7 +282,6 @@ TEST(QtFormat, CaptureSetRoundTrip) {
   unlit.light_offsets.clear();
   const QtFile plain = QtFile::from_bytes(encode_capture_set(unlit.view(), {}, {}), "plain.qt");
   EXPECT_TRUE(plain.captures().light_offsets.empty());
-  EXPECT_EQ(plain.format_version(), 1u);
   EXPECT_TRUE(plain.captures().lights_of(1).empty());
 }
 
@@ -289,7 +333,7 @@ TEST(QtFormat, MutatedAndTruncatedFilesLoadValidOrFailCleanly) {
       encode_tree(sample_tree(32, 3, 1).view(), {}, test_provenance()),
       encode_brdf_table(sample_table(2).view(), "phong", "{}", {}, test_provenance()),
       encode_capture_set(sample_captures(3).view(), {}, test_provenance())};
-  const Quadtree probe = sample_tree(8, 1, 0);
+  const PackedTree probe = sample_tree(8, 1, 0);
   std::mt19937 rng(2024);
   int loaded = 0, rejected = 0;
   for (int trial = 0; trial < 6000; ++trial) {
@@ -352,27 +396,36 @@ TEST(QtFormat, ForeignEmptyAndFutureFilesAreRejected) {
     EXPECT_EQ(load_error({reinterpret_cast<const std::byte*>(b.GetBufferPointer()), b.GetSize()}),
               "input.qt: not a .qt file (no BQTF identifier)");
   }
-  // Versions 1 (before directional lights) and 2 read; a future version, otherwise well
-  // formed, is refused.
-  const Quadtree tree = sample_tree(8, 1, 0);
-  for (const std::uint32_t version : {1u, kQtFormatVersion, kQtFormatVersion + 1}) {
+  // Versions 1 and 2 (float trees) and 3 read; a future version, otherwise well formed, is
+  // refused by name.
+  const Quadtree old = sample_float_tree(8, 1, 0);
+  for (const std::uint32_t version : {1u, 2u})
+    EXPECT_EQ(load_error(old_version_file(old, version)), "");
+  const PackedTree tree = sample_tree(8, 1, 0);
+  const TreeExtent extent{0, std::uint32_t(tree.node_count()), tree.scales};
+  const TreeSetView set(tree.shape, {&extent, 1}, tree.words);
+  EXPECT_EQ(load_error(unchecked_file(set, nullptr)), "");
+  std::vector<std::byte> future = unchecked_file(set, nullptr);
+  {
     flatbuffers::FlatBufferBuilder b;
-    const format::TreeExtent extent(0, tree.node_count());
-    const auto trees = format::CreateTreeSet(
-        b, 8, 1, 1, 0.05, format::ToleranceMode::Relative, 0, b.CreateVectorOfStructs(&extent, 1),
-        b.CreateVectorOfStructs(reinterpret_cast<const format::Quad*>(tree.nodes.data()),
-                                tree.nodes.size()),
-        b.CreateVectorOfStructs(reinterpret_cast<const format::Quad*>(tree.errors.data()),
-                                tree.errors.size()));
-    const auto root = format::CreateFile(b, version, format::Kind::Tree,
-                                         format::Mapping::CosineConcentric, trees);
-    format::FinishFileBuffer(b, root);
-    EXPECT_EQ(load_error({reinterpret_cast<const std::byte*>(b.GetBufferPointer()), b.GetSize()}),
-              version <= kQtFormatVersion ? ""
-                                          : "input.qt: format version " + std::to_string(version) +
-                                                " is newer than this build reads (" +
-                                                std::to_string(kQtFormatVersion) + ")");
+    const auto words = b.CreateVector(tree.words.data(), tree.words.size());
+    const auto extents =
+        b.CreateVectorOfStructs(reinterpret_cast<const format::PackedExtent*>(&extent), 1);
+    format::TreeSetBuilder sb(b);
+    sb.add_resolution(8);
+    sb.add_channels(1);
+    sb.add_groups(1);
+    sb.add_packed_extents(extents);
+    sb.add_words(words);
+    const auto trees = sb.Finish();
+    format::FinishFileBuffer(b, format::CreateFile(b, kQtFormatVersion + 1, format::Kind::Tree,
+                                                   format::Mapping::CosineConcentric, trees));
+    future.assign(reinterpret_cast<const std::byte*>(b.GetBufferPointer()),
+                  reinterpret_cast<const std::byte*>(b.GetBufferPointer()) + b.GetSize());
   }
+  EXPECT_EQ(load_error(future), "input.qt: format version " + std::to_string(kQtFormatVersion + 1) +
+                                    " is newer than this build reads (" +
+                                    std::to_string(kQtFormatVersion) + ")");
   EXPECT_THROW(QtFile::load(dir.file("missing.qt")), FileError);
   try {
     QtFile::load(dir.file("missing.qt"));
@@ -389,47 +442,52 @@ TEST(QtFormat, ForeignEmptyAndFutureFilesAreRejected) {
   EXPECT_THROW(QtFile::load(dir.file("empty.qt")), FileError);
 }
 
-// Structurally valid buffers whose trees break the format's rules.
+// Structurally valid buffers whose packed trees break the format's rules.
 TEST(QtFormat, SemanticViolationsAreNamedAndNeverWritten) {
-  auto with_links = [](Quadtree tree, int node, int q, std::int32_t child) {
-    std::memcpy(reinterpret_cast<char*>(&tree.nodes[node * tree.shape.stride()]) + 4 * q, &child,
-                4);
+  auto with_link = [](PackedTree tree, int node, std::uint32_t link) {
+    tree.words[std::size_t(node) * tree.shape.words_per_node()] = link;
     return tree;
   };
-  auto error_of = [](const Quadtree& tree) {
-    const TreeExtent extent{0, std::uint32_t(tree.node_count())};
-    const TreeSetView set(tree.shape, {&extent, 1}, tree.nodes, tree.errors);
+  auto error_of = [](const PackedTree& tree) {
+    const TreeExtent extent{0, std::uint32_t(tree.node_count()), tree.scales};
+    const TreeSetView set(tree.shape, {&extent, 1}, tree.words);
     return refused(unchecked_file(set, nullptr), [&] { encode_tree(tree.view(), {}, {}); });
   };
-  const Quadtree good = sample_tree(32, 1, 1);
+  const PackedTree good = sample_tree(32, 1, 1);
   ASSERT_GT(good.node_count(), 3);
   ASSERT_EQ(error_of(good), "");
-  EXPECT_NE(error_of(with_links(good, 2, 0, 1)).find("children must follow their parent"),
+  const std::uint32_t root = good.view().link(0);
+  ASSERT_NE(root, 0u);
+  // The root's children start anywhere but right after it; past the tree's end.
+  EXPECT_NE(error_of(with_link(good, 0, (root & 15u) | 2u << 4)).find("breadth first"),
             std::string::npos);
-  EXPECT_NE(error_of(with_links(good, 0, 1, 1000000)).find("links to node 1000000"),
+  EXPECT_NE(error_of(with_link(good, 0, (root & 15u) | 1000000u << 4)).find("links to node"),
             std::string::npos);
-  EXPECT_NE(error_of(with_links(good, 0, 0, -5)).find("links to node -5"), std::string::npos);
+  // A node whose children nobody counts: unreachable.
+  EXPECT_NE(error_of(with_link(good, 0, 0)).find("unreachable"), std::string::npos);
   // A chain deeper than a resolution of 8 allows (3 levels of nodes).
-  Quadtree chain;
-  chain.shape = {8, 1, 1};
-  chain.nodes.resize(4 * 2);
-  chain.errors.resize(4);
+  PackedTree chain = pack(sample_float_tree(8, 1, 0, 0.0));
+  chain.words.assign(std::size_t(4) * chain.shape.words_per_node(), 0);
   for (int n = 0; n < 3; ++n)
-    chain = with_links(chain, n, 0, n + 1);
+    chain = with_link(chain, n, std::uint32_t(n + 1) << 4 | 1u);
   EXPECT_NE(error_of(chain).find("deeper than its resolution"), std::string::npos);
-  Quadtree nan = good;
-  nan.nodes[1].lane[2] = std::nanf("");
-  EXPECT_NE(error_of(nan).find("NaN or infinite"), std::string::npos);
-  Quadtree negative = good;
-  negative.errors[0].lane[1] = -1;
-  EXPECT_NE(error_of(negative).find("negative"), std::string::npos);
-  // Node 1 linked twice.
-  const int second_child = good.view().child(0, 1) ? 1 : 2;
-  Quadtree twice = with_links(good, 0, second_child, good.view().child(0, 0));
-  const std::string twice_error = error_of(twice);
-  EXPECT_TRUE(twice_error.find("two parents") != std::string::npos ||
-              twice_error.find("unreachable") != std::string::npos)
-      << twice_error;
+  // Values that are not numbers: a NaN half and an infinite one.
+  for (const std::uint16_t bad : {std::uint16_t(0x7e00), std::uint16_t(0xfc00)}) {
+    PackedTree nan = good;
+    std::memcpy(reinterpret_cast<char*>(nan.words.data() + 1) + 2, &bad, 2);
+    EXPECT_NE(error_of(nan).find("NaN or infinite"), std::string::npos);
+  }
+  // Scales that are not finite positive numbers.
+  for (const float scale : {0.0f, -1.0f, INFINITY, std::nanf("")}) {
+    PackedTree scaled = good;
+    scaled.scales.bound_scale = scale;
+    EXPECT_NE(error_of(scaled).find("scales"), std::string::npos) << scale;
+  }
+  // A bound kind no writer holds.
+  const TreeExtent extent{0, std::uint32_t(good.node_count()), good.scales};
+  EXPECT_EQ(
+      load_error(unchecked_file(TreeSetView(good.shape, {&extent, 1}, good.words), nullptr, 7)),
+      "input.qt: trees: unknown bound kind 7");
 }
 
 TEST(QtFormat, WritesAreAtomic) {

@@ -16,11 +16,11 @@ std::string capture_file() {
   static const std::string path = [] {
     const std::string p =
         (std::filesystem::temp_directory_path() / "basis_bench_100k_captures.qt").string();
-    std::vector<Quadtree> distinct;
+    std::vector<PackedTree> distinct;
     for (int k = 0; k < 64; ++k)
-      distinct.push_back(project(sky_grid(32, 0.1 * k), {}));
+      distinct.push_back(pack(project(sky_grid(32, 0.1 * k), {})));
     CaptureSet set;
-    set.trees = TreeSet({32, 3, 1});
+    set.trees = TreeSet(distinct[0].shape);
     for (int i = 0; i < 100000; ++i) {
       set.trees.append(distinct[i % 64].view());
       set.positions.push_back({0.01 * i, 0, 0});
@@ -40,7 +40,7 @@ void BM_LoadCaptureSet(benchmark::State& state) {
     const QtFile file = QtFile::load(path);
     bytes = file.byte_size();
     trees = file.trees().size();
-    benchmark::DoNotOptimize(file.trees().nodes().data());
+    benchmark::DoNotOptimize(file.trees().words().data());
   }
   state.SetBytesProcessed(std::int64_t(bytes) * state.iterations());
   state.counters["trees"] = double(trees);

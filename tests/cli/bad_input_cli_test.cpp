@@ -79,15 +79,18 @@ void write_inputs(const TempDir& dir) {
   // A .qt file of a future format version, otherwise well formed.
   const QtFile ok = QtFile::load(dir.file("ok.qt"));
   flatbuffers::FlatBufferBuilder b;
-  const QuadtreeView tree = ok.tree();
-  const format::TreeExtent extent(0, std::uint32_t(tree.node_count()));
-  const auto trees = format::CreateTreeSet(
-      b, tree.shape().resolution, tree.shape().channels, 1, 0.05, format::ToleranceMode::Relative,
-      0, b.CreateVectorOfStructs(&extent, 1),
-      b.CreateVectorOfStructs(reinterpret_cast<const format::Quad*>(tree.nodes().data()),
-                              tree.nodes().size()),
-      b.CreateVectorOfStructs(reinterpret_cast<const format::Quad*>(tree.errors().data()),
-                              tree.errors().size()));
+  const PackedTreeView tree = ok.tree();
+  const format::PackedExtent extent(0, std::uint32_t(tree.node_count()), tree.scales().value_scale,
+                                    tree.scales().bound_scale);
+  const auto extents = b.CreateVectorOfStructs(&extent, 1);
+  const auto words = b.CreateVector(tree.words().data(), tree.words().size());
+  format::TreeSetBuilder set(b);
+  set.add_resolution(tree.shape().resolution);
+  set.add_channels(tree.shape().channels);
+  set.add_groups(1);
+  set.add_packed_extents(extents);
+  set.add_words(words);
+  const auto trees = set.Finish();
   format::FinishFileBuffer(
       b, format::CreateFile(b, 99, format::Kind::Tree, format::Mapping::CosineConcentric, trees));
   std::ofstream(dir.file("future.qt"), std::ios::binary)

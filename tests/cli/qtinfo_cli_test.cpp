@@ -20,7 +20,8 @@ using testing::TempDir;
 std::string write_sample_tree(const TempDir& dir, Quadtree& tree) {
   tree = project(testing::test_functions(64, 3, 5)[1].grid, {.tolerance = 0.03});
   const std::string path = dir.file("smooth.qt");
-  write_qt(path, encode_tree(tree.view(), {.tolerance = 0.03}, {"test", "1", "{}", {"x.exr"}}));
+  write_qt(path,
+           encode_tree(pack(tree).view(), {.tolerance = 0.03}, {"test", "1", "{}", {"x.exr"}}));
   return path;
 }
 

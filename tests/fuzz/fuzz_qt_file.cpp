@@ -14,9 +14,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     basis::Grid one(2, 1);
     for (float& t : one.texels)
       t = 1;
-    const basis::Quadtree probe = basis::project(one);
+    const basis::PackedTree probe = basis::pack(basis::project(one));
     for (std::size_t i = 0; i < file.trees().size(); ++i)
-      basis::convolve(file.trees().tree(i), probe.view());
+      for (const double accuracy : {0.0, 0.01})
+        basis::convolve(file.trees().tree(i), probe.view(), {.accuracy = accuracy});
     if (file.kind() == basis::QtKind::brdf_table) {
       const basis::BrdfTableView table = file.brdf_table();
       for (std::size_t i = 0; i < table.tilt.size(); ++i)

@@ -78,7 +78,7 @@ BrdfTable tabulate_brdf(const Brdf& brdf, const BrdfTableOptions& options,
   if (!is_valid_resolution(options.wi_resolution))
     throw std::invalid_argument("wi resolution must be a power of two from 2 to 512");
   const std::size_t count = std::size_t(m) * m;
-  std::vector<Quadtree> entries(count), tilts(options.tilt_derivatives ? count : 0);
+  std::vector<PackedTree> entries(count), tilts(options.tilt_derivatives ? count : 0);
   std::vector<char> needed(count, options.only_for.empty());
   for (const Vec3& wo : options.only_for)
     for (const TableTap& tap : table_taps(m, wo))
@@ -94,17 +94,19 @@ BrdfTable tabulate_brdf(const Brdf& brdf, const BrdfTableOptions& options,
     }
     if (!needed[k]) {  // a partial table: zero trees of the full table's shape
       const int channels = channel_count(brdf);
-      entries[k] = project(Grid(options.wi_resolution, channels, 1), options.projection);
+      entries[k] = pack(project(Grid(options.wi_resolution, channels, 1), options.projection),
+                        options.bounds);
       if (options.tilt_derivatives)
-        tilts[k] =
+        tilts[k] = pack(
             project(Grid(std::min(options.tilt_resolution, options.wi_resolution), channels, 2),
-                    {.tolerance = 0, .mode = ProjectionOptions::Mode::absolute});
+                    {.tolerance = 0, .mode = ProjectionOptions::Mode::absolute}),
+            options.bounds);
       control.report(++done, count);
       return;
     }
     const Vec3 wo = table_outgoing(int(k % m), int(k / m), m);
     const Grid base = tabulate_entry(brdf, wo, options);
-    entries[k] = project(base, options.projection);
+    entries[k] = pack(project(base, options.projection), options.bounds);
     if (options.tilt_derivatives) {
       // Absolute tolerance for both derivative groups: the scaled tolerance of f, taken from
       // the brightest channel's mean.
@@ -120,11 +122,11 @@ BrdfTable tabulate_brdf(const Brdf& brdf, const BrdfTableOptions& options,
       tilt_projection.max_depth = 0;
       tilt_projection.cut_on_all_groups = true;
       tilt_projection.group_tolerance_scale = 1;
-      tilts[k] = project(tabulate_tilt(brdf, wo, options), tilt_projection);
+      tilts[k] = pack(project(tabulate_tilt(brdf, wo, options), tilt_projection), options.bounds);
     }
-    bytes += (entries[k].nodes.size() + entries[k].errors.size() +
-              (tilts.empty() ? 0 : tilts[k].nodes.size() + tilts[k].errors.size())) *
-             sizeof(Quad);
+    bytes += (entries[k].words.size() + (tilts.empty() ? 0 : tilts[k].words.size())) *
+                 sizeof(std::uint32_t) +
+             sizeof(TreeExtent) * (tilts.empty() ? 1 : 2);
     if (bytes > options.max_bytes) too_large = true;
     control.report(++done, count);
   });
@@ -138,11 +140,11 @@ BrdfTable tabulate_brdf(const Brdf& brdf, const BrdfTableOptions& options,
   table.wo_resolution = m;
   table.model = model_name(brdf);
   table.trees = TreeSet(entries.front().shape);
-  for (const Quadtree& e : entries)
+  for (const PackedTree& e : entries)
     table.trees.append(e.view());
   if (!tilts.empty()) {
     table.tilt = TreeSet(tilts.front().shape);
-    for (const Quadtree& t : tilts)
+    for (const PackedTree& t : tilts)
       table.tilt.append(t.view());
   }
   return table;

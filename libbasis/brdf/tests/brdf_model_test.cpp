@@ -184,7 +184,7 @@ TEST(MerlBrdf, FileFromAnalyticBrdfReproducesItsAlbedo) {
   Grid one(2, 1);
   for (float& t : one.texels)
     t = 1;
-  const Quadtree light = project(one);
+  const PackedTree light = pack(project(one));
   // At table entries (s = 0, 0.25, 0.5, 0.75 on the 9 x 9 grid: 0, 28, 53 and 74 degrees), so
   // that the interpolation between entries (tested elsewhere) does not enter.
   for (int i = 4; i < 8; ++i) {

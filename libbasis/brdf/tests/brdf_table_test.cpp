@@ -17,11 +17,11 @@ Vec3 outgoing(double theta_degrees, double phi_degrees) {
   return {std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t)};
 }
 
-Quadtree constant_radiance() {
+PackedTree constant_radiance() {
   Grid g(2, 1);
   for (float& t : g.texels)
     t = 1;
-  return project(g);
+  return pack(project(g));
 }
 
 struct ModelCase {
@@ -60,7 +60,7 @@ TEST_P(TableAlbedo, MatchesNumericIntegration) {
   options.tilt_derivatives = false;
   options.only_for = directions;  // the entries these lookups read (PartialTable.*)
   const BrdfTable table = tabulate_brdf(m.brdf, options);
-  const Quadtree light = constant_radiance();
+  const PackedTree light = constant_radiance();
   const int channels = channel_count(m.brdf);
   double worst = 0;
   for (const double theta : {0.0, 30.0, 60.0, 80.0})
@@ -90,7 +90,7 @@ TEST(PartialTable, MatchesTheFullTableWhereItsDirectionsRead) {
   const BrdfTable partial = tabulate_brdf(brdf, options);
   ASSERT_EQ(partial.trees.size(), full.trees.size());
   ASSERT_EQ(partial.tilt.size(), full.tilt.size());
-  const Quadtree light = constant_radiance();
+  const PackedTree light = constant_radiance();
   std::vector<char> read(std::size_t(9 * 9), 0);
   for (const Vec3& wo : directions) {
     const Convolution a = reflect(full.view(), light.view(), wo);

@@ -494,7 +494,7 @@ TEST(RglBrdf, TabulatedAlbedoMatchesTheFilesOwnSampler) {
   Grid one(2, 1);
   for (float& t : one.texels)
     t = 1;
-  const Quadtree light = project(one);
+  const PackedTree light = pack(project(one));
   std::mt19937 rng(41);
   for (const std::string& path : files) {
     std::ofstream(dir.file("spec.json")) << "{\"model\": \"rgl\", \"file\": \"" << path << "\"}";
@@ -509,7 +509,8 @@ TEST(RglBrdf, TabulatedAlbedoMatchesTheFilesOwnSampler) {
     // enter.
     for (int i = 4; i < 8; ++i) {
       const Vec3 wo = table_outgoing(i, 4, 9);
-      const Quadtree entry = project(tabulate_entry(spec.brdf, wo, options), options.projection);
+      const PackedTree entry =
+          pack(project(tabulate_entry(spec.brdf, wo, options), options.projection));
       // The square's integral of f L is the hemisphere's integral of f L cos over pi.
       Convolution tabulated = convolve(entry.view(), light.view());
       for (float& v : tabulated.value)

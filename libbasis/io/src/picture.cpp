@@ -6,8 +6,11 @@
 
 namespace basis {
 
-Image draw_tree(const QuadtreeView& tree, const PictureOptions& options) {
-  const QuadtreeShape& shape = tree.shape();
+namespace {
+
+template <typename Tree>
+Image draw(const Tree& tree, const PictureOptions& options) {
+  const auto& shape = tree.shape();
   if (options.size < 2 || options.size > 8192)
     throw std::invalid_argument("picture size must be 2..8192 pixels");
   if (options.group < 0 || options.group >= shape.groups)
@@ -70,6 +73,16 @@ Image draw_tree(const QuadtreeView& tree, const PictureOptions& options) {
       }
   }
   return image;
+}
+
+}  // namespace
+
+Image draw_tree(const QuadtreeView& tree, const PictureOptions& options) {
+  return draw(tree, options);
+}
+
+Image draw_tree(const PackedTreeView& tree, const PictureOptions& options) {
+  return draw(tree, options);
 }
 
 Image draw_points_from_above(std::span<const Vec3> positions, std::span<const Rgb> values,

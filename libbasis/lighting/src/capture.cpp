@@ -206,7 +206,7 @@ CaptureSet capture_set(const Environment& environment, const RayScene* scene,
                        const TaskControl& control, CaptureTimings* timings) {
   const std::size_t count = points.size();
   if (count == 0) throw std::invalid_argument("no points to capture");
-  std::vector<Quadtree> trees(count);
+  std::vector<PackedTree> trees(count);
   std::vector<Frame> frames(count);
   std::vector<std::vector<DirectionalLight>> lights(count);
   std::atomic<std::size_t> done{0}, bytes{0};
@@ -215,6 +215,7 @@ CaptureSet capture_set(const Environment& environment, const RayScene* scene,
   control.report(0, count);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 1), [&](const auto& range) {
     QuadtreeProjector projector;
+    Quadtree tree;
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
       if (stop.load(std::memory_order_relaxed) || too_large.load(std::memory_order_relaxed)) return;
       if (control.cancel && control.cancel->load()) {
@@ -239,17 +240,18 @@ CaptureSet capture_set(const Environment& environment, const RayScene* scene,
         for (int c = 0; c < 3; ++c)
           projection.extra_mean[c] += light.energy[c] * light.direction.z() / std::numbers::pi;
       try {
-        projector.project(c.texels, projection, trees[i]);
+        projector.project(c.texels, projection, tree);
       } catch (const std::overflow_error& e) {
         throw FileError(environment.name() + ": radiance too large for captures: " + e.what());
       }
+      trees[i] = pack(tree, options.bounds);
       const auto t2 = std::chrono::steady_clock::now();
       if (options.on_grid) options.on_grid(i, c.texels, lights[i]);
       capture_ns += std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - t0).count();
       projection_ns += std::chrono::duration_cast<std::chrono::nanoseconds>(t2 - t1).count();
       rays += c.stats.rays;
       escaped += c.stats.escaped;
-      bytes += (trees[i].nodes.size() + trees[i].errors.size()) * sizeof(Quad);
+      bytes += trees[i].words.size() * sizeof(std::uint32_t) + sizeof(TreeExtent);
       if (bytes > options.max_bytes) too_large = true;
       control.report(++done, count);
     }

@@ -48,15 +48,15 @@ void add_lights(std::span<const DirectionalLight> lights, const std::optional<Fr
 Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, std::size_t k,
                   const ShadingOptions& options) {
   if (!(options.wo.z() >= 0)) throw std::invalid_argument("outgoing direction below the horizon");
-  const QuadtreeView radiance = captures.trees.tree(k);
+  const PackedTreeView radiance = captures.trees.tree(k);
   const Vec3 wo = options.wo.normalized();
   Convolution result;
   std::optional<Frame> record, shading;
   if (!options.normal) {
-    result = reflect(table, radiance, wo);
+    result = reflect(table, radiance, wo, options.convolution);
   } else {
     const Tilt tilt = capture_tilt(captures, k, *options.normal);
-    result = reflect_tilted(table, radiance, wo, tilt, options.tilt_mode);
+    result = reflect_tilted(table, radiance, wo, tilt, options.tilt_mode, options.convolution);
     if (options.tilt_mode != TiltCompensation::none) {
       record = captures.frame(k);
       shading = tilted_frame(*record, tilt);
@@ -72,12 +72,13 @@ Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, st
              [&](const Vec3& wi, Color& f, Color& error) {
                const Vec2 uv = cosine_hemisphere_to_square(wi);
                for (const TableTap& tap : taps) {
-                 const QuadtreeView entry = table.entry(tap.i, tap.j);
+                 const PackedTreeView entry = table.entry(tap.i, tap.j);
                  const LeafQuadrant leaf = find_leaf(entry, uv.x(), uv.y());
                  for (int c = 0; c < 3; ++c) {
                    const int channel = std::min(c, table_channels - 1);
                    f[c] += tap.weight * entry.value(leaf.node, 0, channel, leaf.quadrant);
-                   error[c] += tap.weight * entry.error(leaf.node, channel, leaf.quadrant);
+                   error[c] += tap.weight * entry.largest_deviation_bound(
+                                                leaf.node, channel, leaf.quadrant, leaf.level);
                  }
                }
              });
@@ -115,7 +116,7 @@ Convolution shade_dense(const DenseLookup& table, const Grid& radiance,
 Convolution capture_product(const CaptureSetView& a, const CaptureSetView& b, std::size_t k) {
   // A set of one capture stands for every point.
   const std::size_t ka = a.trees.size() == 1 ? 0 : k, kb = b.trees.size() == 1 ? 0 : k;
-  const QuadtreeView ta = a.trees.tree(ka), tb = b.trees.tree(kb);
+  const PackedTreeView ta = a.trees.tree(ka), tb = b.trees.tree(kb);
   Convolution result = convolve(ta, tb);
   for (int c = 0; c < 3; ++c) {
     result.value[c] *= float(std::numbers::pi);
@@ -143,13 +144,14 @@ Convolution capture_product(const CaptureSetView& a, const CaptureSetView& b, st
     return out;
   };
   const std::vector<Splat> sa = splats(la), sb = splats(lb);
-  auto against_tree = [&](const std::vector<Splat>& lights, const QuadtreeView& tree) {
+  auto against_tree = [&](const std::vector<Splat>& lights, const PackedTreeView& tree) {
     for (const Splat& s : lights) {
       const LeafQuadrant leaf = find_leaf(tree, (s.x + 0.5) / n, (s.y + 0.5) / n);
       for (int c = 0; c < 3; ++c) {
         const int channel = std::min(c, tree.shape().channels - 1);
         result.value[c] += float(s.weight[c] * tree.value(leaf.node, 0, channel, leaf.quadrant));
-        result.bound[c] += float(s.weight[c] * tree.error(leaf.node, channel, leaf.quadrant));
+        result.bound[c] += float(s.weight[c] * tree.largest_deviation_bound(
+                                                   leaf.node, channel, leaf.quadrant, leaf.level));
       }
     }
   };

@@ -32,7 +32,7 @@ Rgb white_lambert(const Capture& capture) {
     o.tilt_derivatives = false;
     return tabulate_brdf(Lambert{{1, 1, 1}}, o);
   }();
-  const Quadtree tree = project(capture.texels, {.tolerance = 0.05});
+  const PackedTree tree = pack(project(capture.texels, {.tolerance = 0.05}));
   return reflect(table.view(), tree.view(), Vec3::UnitZ()).value;
 }
 

@@ -17,7 +17,7 @@ std::vector<TiltStudyRow> study_tilts(const Environment& environment, const Vec3
   const Grid grid =
       capture(environment, nullptr, Vec3::Zero(), record, {.resolution = o.capture_resolution})
           .texels;
-  const Quadtree radiance = project(grid, {.tolerance = o.capture_tolerance});
+  const PackedTree radiance = pack(project(grid, {.tolerance = o.capture_tolerance}));
   std::vector<std::vector<double>> sh_light;
   for (int order : o.sh_orders)
     sh_light.push_back(sh_project(grid, order, false));

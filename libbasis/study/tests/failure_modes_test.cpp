@@ -50,11 +50,11 @@ TEST(FailureModes, SphericalHarmonicsGoNegativeOnASharpLobeQuadtreesNever) {
   }
 }
 
-Quadtree constant_light() {
+PackedTree constant_light() {
   Grid g(2, 1);
   for (float& t : g.texels)
     t = 1;
-  return project(g);
+  return pack(project(g));
 }
 
 TEST(FailureModes, GrazingOutgoingDirections) {

@@ -27,8 +27,8 @@ using testing::TiltErrors;
 TiltErrors tilt_errors(const Environment& env, const Brdf& brdf, const BrdfTable& table,
                        double degrees) {
   const Frame record = Frame::from_normal(Vec3(0.3, -0.2, 0.93).normalized());
-  const Quadtree radiance = project(
-      capture(env, nullptr, Vec3::Zero(), record, {.resolution = 64}).texels, {.tolerance = 0.01});
+  const PackedTree radiance = pack(project(
+      capture(env, nullptr, Vec3::Zero(), record, {.resolution = 64}).texels, {.tolerance = 0.01}));
   const auto samples = testing::map_samples(env);
   TiltErrors e;
   int count = 0;

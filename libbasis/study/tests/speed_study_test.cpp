@@ -36,9 +36,8 @@ TEST(SpeedStudy, TheWallHidesSkyButNotTheSun) {
 
 TEST(SpeedStudy, RowsAreAveragedOverOutgoingDirections) {
   const Environment env(testing::synthetic_sky());
-  std::vector<ComparisonCase> cases =
-      speed_study_cases(env, {{"phong100", Phong{{0.5, 0.5, 0.5}, {0.4, 0.4, 0.4}, 100}}},
-                        {.quick = true});
+  std::vector<ComparisonCase> cases = speed_study_cases(
+      env, {{"phong100", Phong{{0.5, 0.5, 0.5}, {0.4, 0.4, 0.4}, 100}}}, {.quick = true});
   ASSERT_EQ(cases.size(), 1u);  // quick: one light, one outgoing direction
   // A second outgoing direction of the same panel and light: the first with a doubled truth.
   cases.push_back(cases[0]);

@@ -17,9 +17,10 @@
 
 namespace basis {
 
-// The newest format version this build reads. Version 2 added the capture sets' directional
-// lights; files are written as version 1 unless they hold lights, and version 1 reads as before.
-inline constexpr std::uint32_t kQtFormatVersion = 2;
+// The format version this build writes and the newest it reads. Version 2 added the capture
+// sets' directional lights, version 3 packed trees (packed_tree.h). Versions 1 and 2 still
+// load: their float trees are packed on loading, with largest-deviation (linf) bounds.
+inline constexpr std::uint32_t kQtFormatVersion = 3;
 
 // Limits checked before anything is allocated from a file's claims.
 inline constexpr std::uint64_t kQtMaxFileBytes = (std::uint64_t(1) << 31) - 1;  // FlatBuffers
@@ -59,7 +60,10 @@ class QtFile {
   TreeSetView trees() const { return trees_; }
   ProjectionOptions projection() const { return projection_; }
   // The single tree of a kind-tree file (the first tree otherwise).
-  QuadtreeView tree() const { return trees_.tree(0); }
+  PackedTreeView tree() const { return trees_.tree(0); }
+  // Whether the trees are used where they lie in the file (version 3) or were packed on loading
+  // (versions 1 and 2).
+  bool zero_copy() const { return converted_.empty(); }
   // The table of a kind-brdf_table file; throws FileError for other kinds.
   BrdfTableView brdf_table() const;
   std::string brdf_model() const;
@@ -73,7 +77,13 @@ class QtFile {
   void verify();
   // Checks one tree set of the buffer; `what` names it in errors.
   TreeSetView verify_tree_set(const void* set, const std::string& what,
-                              ProjectionOptions* projection) const;
+                              ProjectionOptions* projection);
+  // Version 3: packed trees, checked where they lie.
+  TreeSetView verify_packed_trees(const void* set, const std::string& what,
+                                  const QuadtreeShape& shape) const;
+  // Versions 1 and 2: float trees, checked and packed into converted_.
+  TreeSetView verify_and_pack_float_trees(const void* set, const std::string& what,
+                                          const QuadtreeShape& shape);
   // The file's bytes, 16-byte aligned: a read-only memory map of a file, or a copy in memory.
   class Buffer {
    public:
@@ -102,15 +112,16 @@ class QtFile {
   ProjectionOptions projection_;
   TreeSetView trees_;
   TreeSetView tilt_;
+  std::vector<TreeSet> converted_;  // trees of versions 1 and 2, packed
   int wo_resolution_ = 0;
   CaptureSetView captures_;
 };
 
-// Complete .qt buffers. Each is verified with the loader's checks before it is returned, so that
-// no file is written that load() would refuse. Throw std::invalid_argument for inconsistent
-// input and for content the loader refuses (NaN or infinite values, negative bounds, links out
-// of order, frames that are not unit vectors, lights below the horizon, ...).
-std::vector<std::byte> encode_tree(const QuadtreeView& tree, const ProjectionOptions& projection,
+// Complete .qt buffers (the current version). Each is verified with the loader's checks before it
+// is returned, so that no file is written that load() would refuse. Throw std::invalid_argument for
+// inconsistent input and for content the loader refuses (NaN or infinite values, negative bounds,
+// links out of order, frames that are not unit vectors, lights below the horizon, ...).
+std::vector<std::byte> encode_tree(const PackedTreeView& tree, const ProjectionOptions& projection,
                                    const Provenance& provenance);
 std::vector<std::byte> encode_brdf_table(const BrdfTableView& table, const std::string& model,
                                          const std::string& spec,

@@ -23,8 +23,10 @@ struct BrdfTableView {
   TreeSetView trees;
   TreeSetView tilt;  // empty when the table has no tilt derivatives
 
-  QuadtreeView entry(int i, int j) const { return trees.tree(std::size_t(j) * wo_resolution + i); }
-  QuadtreeView tilt_entry(int i, int j) const {
+  PackedTreeView entry(int i, int j) const {
+    return trees.tree(std::size_t(j) * wo_resolution + i);
+  }
+  PackedTreeView tilt_entry(int i, int j) const {
     return tilt.tree(std::size_t(j) * wo_resolution + i);
   }
   bool has_tilt() const { return tilt.size() > 0; }
@@ -51,6 +53,9 @@ struct BrdfTableOptions {
   int wo_resolution = 33;   // M, entries per side of the parabolic grid (2..256)
   int wi_resolution = 128;  // N, texels per side of each entry (power of two, 2..512)
   ProjectionOptions projection;
+  // What the packed entries' bounds bound (packed_tree.h): the RMS deviation (l2, tighter, the
+  // default) or the largest deviation (linf, every texel).
+  BoundKind bounds = BoundKind::l2;
   bool tilt_derivatives = true;   // also tabulate the tilt derivatives (rotation compensation)
   double derivative_step = 1e-3;  // radians, central differences of tilt_derivative
   // The tilt trees are refined where their bound exceeds this multiple of the entry's own

@@ -13,8 +13,10 @@ namespace basis {
 // a unit wo with wo.z >= 0 in the table's frame: the four entries around wo in the parabolic
 // grid convolved with the radiance tree, results interpolated bilinearly (section 2.4). The
 // bound interpolates the entries' bounds: it covers the trees against their texels, not the
-// BRDF's variation between entries. Throws std::invalid_argument for wo below the horizon.
-Convolution reflect(const BrdfTableView& table, const QuadtreeView& radiance, const Vec3& wo);
+// BRDF's variation between entries. `options` (an accuracy target) apply to each convolution.
+// Throws std::invalid_argument for wo below the horizon.
+Convolution reflect(const BrdfTableView& table, const PackedTreeView& radiance, const Vec3& wo,
+                    const ConvolutionOptions& options = {});
 
 // How reflect_tilted accounts for a tilt of the surface against the record's frame.
 enum class TiltCompensation {
@@ -28,7 +30,8 @@ enum class TiltCompensation {
 // in; wo_shading is in the tilted (shading) frame. The bound is that of the re-parametrised
 // term; the compensation itself is a first-order estimate. Compensation needs a table with
 // tilt derivatives (std::invalid_argument otherwise).
-Convolution reflect_tilted(const BrdfTableView& table, const QuadtreeView& radiance,
-                           const Vec3& wo_shading, const Tilt& tilt, TiltCompensation mode);
+Convolution reflect_tilted(const BrdfTableView& table, const PackedTreeView& radiance,
+                           const Vec3& wo_shading, const Tilt& tilt, TiltCompensation mode,
+                           const ConvolutionOptions& options = {});
 
 }  // namespace basis

@@ -112,6 +112,6 @@ struct PackedTree {
 // scaling, and bounds rounded up after adding what that rounding moved each value, so that
 // they hold for the packed values: l2 from tree.deviations (tree.errors when there are none),
 // linf from tree.errors.
-PackedTree pack(const Quadtree& tree, BoundKind bounds);
+PackedTree pack(const Quadtree& tree, BoundKind bounds = BoundKind::l2);
 
 }  // namespace basis

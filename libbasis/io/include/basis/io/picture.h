@@ -5,6 +5,7 @@
 #include <span>
 
 #include "basis/core/color.h"
+#include "basis/core/packed_tree.h"
 #include "basis/core/quadtree.h"
 #include "basis/core/vector.h"
 #include "basis/io/image.h"
@@ -23,6 +24,7 @@ struct PictureOptions {
 // An RGB display image (values in [0,1]) of one tree: tone-mapped by the function's mean, a
 // grey tree shown grey, signed groups (derivatives) shown blue for negative, red for positive.
 Image draw_tree(const QuadtreeView& tree, const PictureOptions& options = {});
+Image draw_tree(const PackedTreeView& tree, const PictureOptions& options = {});
 
 // A view from above (orthographic, looking down the z axis, x to the right, y up) of points
 // drawn as discs coloured by their values, tone-mapped by the values' mean, on a dark ground.

@@ -66,6 +66,7 @@ void splat_lights(std::span<const DirectionalLight> lights, Grid& grid);
 struct CaptureSetOptions {
   CaptureOptions capture;  // compact_lights apart gives every capture a list of lights
   ProjectionOptions projection;
+  BoundKind bounds = BoundKind::l2;  // what the packed trees' bounds bound (packed_tree.h)
   // Called with each capture's texel grid before projection and the lights kept apart (from
   // worker threads), e.g. to write it out; may be empty.
   std::function<void(std::size_t index, const Grid& grid, std::span<const DirectionalLight> lights)>

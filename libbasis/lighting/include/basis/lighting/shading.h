@@ -25,6 +25,8 @@ struct ShadingOptions {
   // f for the captures' directional lights: this BRDF (the one the table tabulates) at the
   // light's exact direction when given, else the table's entries at the texel it falls in.
   const Brdf* light_brdf = nullptr;
+  // Options of every convolution (an accuracy target).
+  ConvolutionOptions convolution;
 };
 
 // The tilt of a surface of normal `normal` (world) against capture k's frame.
@@ -34,7 +36,7 @@ Tilt capture_tilt(const CaptureSetView& captures, std::size_t k, const Vec3& nor
 // table convolved with the capture's tree, plus f(wi, wo) E wi.z for each of its directional
 // lights. With --normal the lights turn with the surface exactly (no compensation needed;
 // lights below the tilted horizon drop out), except in TiltCompensation::none. A light's bound
-// is 0 with light_brdf, else the entries' leaf error bounds at its texel.
+// is 0 with light_brdf, else the entries' leaves' largest-deviation bounds at its texel.
 Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, std::size_t k,
                   const ShadingOptions& options);
 
@@ -55,8 +57,8 @@ Convolution shade_dense(const DenseLookup& table, const Grid& radiance,
 // The integral of L_a L_b cos over the hemisphere (pi times the product's integral over the
 // cosine-weighted map) at capture k of two sets of one resolution, each capture's directional
 // lights standing in the texel they fall in (as splat_lights would put them); the bound adds,
-// for each light, its weight times the other tree's leaf error bound there. A set of one
-// capture stands for every point. Throws std::invalid_argument when sets with lights differ in
+// for each light, its weight times the other tree's leaf's largest-deviation bound there. A set of
+// one capture stands for every point. Throws std::invalid_argument when sets with lights differ in
 // resolution.
 Convolution capture_product(const CaptureSetView& a, const CaptureSetView& b, std::size_t k);
 

@@ -21,7 +21,7 @@ struct SpeedStudyPanel {
 };
 
 struct SpeedStudyOptions {
-  bool quick = false;    // three panels, one light, fewer parameters
+  bool quick = false;      // three panels, one light, fewer parameters
   std::string measured{};  // an RGL .bsdf file added as a panel when not empty
 };
 
