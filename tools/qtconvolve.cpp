@@ -137,6 +137,7 @@ int main(int argc, char** argv) {
   std::string a_path, b_path, wo_text = "0,0,1", normal_text, tilt_mode = "compensated", png,
                               lights_from = "brdf";
   bool json = false, csv = false, reference = false, time = false, quiet = false, dense = false;
+  double accuracy = 0;
   int threads = 0;
   app.add_option("a", a_path, "first .qt file")->required();
   app.add_option("b", b_path, "second .qt file")->required();
@@ -164,6 +165,12 @@ int main(int argc, char** argv) {
                "also compute the full-resolution product per point (table re-tabulated from "
                "its stored spec, captures re-traced from their recorded inputs) and the "
                "difference");
+  app.add_option("--accuracy", accuracy,
+                 "accuracy-targeted lookups: stop descending a pair of quadrants once its "
+                 "certified bound is at most this fraction of its contribution, so that the "
+                 "reported bound stays within about this fraction of the value (default 0: to "
+                 "the leaves)")
+      ->check(CLI::Range(0.0, 1.0));
   app.add_flag("--time", time, "report the median time per convolution over repeated runs");
   app.add_flag("--dense", dense,
                "compute the same results with vectorised dense products of every tree's "
@@ -185,6 +192,7 @@ int main(int argc, char** argv) {
     if (!(shading.wo.norm() > 1e-12)) throw UsageError("--wo must not be zero");
     if (shading.wo.z() < 0) throw UsageError("--wo is below the horizon (z < 0)");
     shading.wo.normalize();
+    shading.convolution.accuracy = accuracy;
     if (!normal_text.empty()) {
       const basis::Vec3 normal = basis::cli::parse_triple(normal_text, "--normal");
       if (!(normal.norm() > 1e-12)) throw UsageError("--normal must not be zero");

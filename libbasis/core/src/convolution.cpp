@@ -271,7 +271,7 @@ GroupConvolution convolve_groups_scalar(const QuadtreeView& a, const QuadtreeVie
   const int channels = std::max(a.shape().channels, b.shape().channels);
   const int groups = std::min(a.shape().groups, 3);
   ScalarSums sums;
-  detail::descend_scalar(a, b, 0, 0, 0.25, channels, groups, 0.0, float_pair_bound(a, b), sums);
+  detail::descend_scalar(a, b, 0, 0, 0.25, channels, groups, {}, float_pair_bound(a, b), sums);
   GroupConvolution result;
   for (int g = 0; g < groups; ++g)
     result.value[g] = channels_to_rgb(sums.value[g], channels);
@@ -283,7 +283,7 @@ Convolution convolve_scalar(const QuadtreeView& a, const QuadtreeView& b) {
   check_compatible(a.shape(), b.shape());
   const int channels = std::max(a.shape().channels, b.shape().channels);
   ScalarSums sums;
-  detail::descend_scalar(a, b, 0, 0, 0.25, channels, 1, 0.0, float_pair_bound(a, b), sums);
+  detail::descend_scalar(a, b, 0, 0, 0.25, channels, 1, {}, float_pair_bound(a, b), sums);
   return {channels_to_rgb(sums.value[0], channels), channels_to_rgb(sums.bound, channels)};
 }
 

@@ -5,13 +5,15 @@
 #include <cstring>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 #include "basis/core/convolution.h"
 #include "scalar_descent.h"
 
+// The SIMD descent needs SSE4.1 and F16C; an AVX-512 (F, BW, VL) build also takes RGB pairs
+// twelve lanes at a time.
 #if defined(__SSE4_1__) && defined(__F16C__)
 #include <immintrin.h>
-#define BASIS_PACKED_SIMD 1
 #endif
 
 namespace basis {
@@ -27,11 +29,17 @@ void check_compatible(const PackedShape& a, const PackedShape& b) {
 // How far a half-rounded value may lie from the average it stands for, in units of its tree's
 // value scale: half an ulp, 2^-11 of the value, or half the subnormal spacing.
 constexpr double kHalfRounding = 0x1p-11, kHalfSubnormalRounding = 0x1p-25;
+// Summed over the stopped pairs, the rounding terms |a| db + |b| da are at most
+// kRoundingPerMagnitude x (the sum of area |a b|) + kRoundingFloor, in units of the value scales:
+// values in those units lie below 2^15, so |a| 2^-25 <= 2^-10 and the areas add up to 1.
+constexpr double kRoundingPerMagnitude = 2 * kHalfRounding, kRoundingFloor = 0x1p-9;
 
 // The bound of a stopped pair of packed quadrants with values a, b, which stand for true
 // averages a + da, b + db (|da|, |db| at most half an ulp):
 //   |integral of AB - area a b| <= area (|integral of (A - a)(B - b)| / area + |a| db + |b| da),
-// the first term at most min(sa sb, [a linf] ea (|b| + db) + |b| da, [b linf] likewise).
+// the first term at most min(sa sb, [a linf] ea (|b| + db) + |b| da, [b linf] likewise), the
+// rounding terms kRoundingPerMagnitude |a b| here and kRoundingFloor (times the value scales)
+// once for the whole descent.
 auto packed_pair_bound(const PackedTreeView& a, const PackedTreeView& b) {
   const bool linf_a = a.shape().bounds == BoundKind::linf;
   const bool linf_b = b.shape().bounds == BoundKind::linf;
@@ -44,7 +52,7 @@ auto packed_pair_bound(const PackedTreeView& a, const PackedTreeView& b) {
     double product = sa * sb;
     if (linf_a) product = std::min(product, sa * (std::abs(vb) + db) + std::abs(vb) * da);
     if (linf_b) product = std::min(product, sb * (std::abs(va) + da) + std::abs(va) * db);
-    return product + std::abs(va) * db + std::abs(vb) * da;
+    return product + kRoundingPerMagnitude * std::abs(va * vb);
   };
 }
 
@@ -52,9 +60,18 @@ GroupConvolution scalar(const PackedTreeView& a, const PackedTreeView& b, int gr
                         double accuracy) {
   check_compatible(a.shape(), b.shape());
   const int channels = std::max(a.shape().channels, b.shape().channels);
+  detail::AccuracyTarget target{accuracy, {}};
+  for (int c = 0; c < channels; ++c)
+    for (int q = 0; q < 4; ++q)
+      target.estimate[c] += std::abs(double(a.value(0, 0, std::min(c, a.shape().channels - 1), q)) *
+                                     b.value(0, 0, std::min(c, b.shape().channels - 1), q)) /
+                            4;
   detail::ScalarSums sums;
-  detail::descend_scalar(a, b, 0, 0, 0.25, channels, groups, accuracy, packed_pair_bound(a, b),
-                         sums);
+  detail::descend_scalar(a, b, 0, 0, 0.25, channels, groups, target, packed_pair_bound(a, b), sums);
+  const double floor =
+      kRoundingFloor * double(a.scales().value_scale) * double(b.scales().value_scale);
+  for (double& bound : sums.bound)
+    bound += floor;
   GroupConvolution result;
   for (int g = 0; g < groups; ++g)
     result.value[g] = channels_to_rgb(sums.value[g], channels);
@@ -62,7 +79,13 @@ GroupConvolution scalar(const PackedTreeView& a, const PackedTreeView& b, int gr
   return result;
 }
 
-#if defined(BASIS_PACKED_SIMD)
+#if defined(__SSE4_1__) && defined(__F16C__)
+
+// kChildOffsets[mask][q]: the rank of quadrant q's child among the refined quadrants of mask.
+alignas(16) constexpr std::uint32_t kChildOffsets[16][4] = {
+    {0, 0, 0, 0}, {0, 1, 1, 1}, {0, 0, 1, 1}, {0, 1, 2, 2}, {0, 0, 0, 1}, {0, 1, 1, 2},
+    {0, 0, 1, 2}, {0, 1, 2, 3}, {0, 0, 0, 0}, {0, 1, 1, 1}, {0, 0, 1, 1}, {0, 1, 2, 2},
+    {0, 0, 0, 1}, {0, 1, 1, 2}, {0, 0, 1, 2}, {0, 1, 2, 3}};
 
 // Lanes of the quadrants whose bit is set in a 4-bit mask.
 alignas(16) constexpr std::uint32_t kLaneMasks[16][4] = {
@@ -73,6 +96,11 @@ alignas(16) constexpr std::uint32_t kLaneMasks[16][4] = {
 
 inline __m128 lanes_of(unsigned mask) {
   return _mm_load_ps(reinterpret_cast<const float*>(kLaneMasks[mask]));
+}
+
+// The ranks of the four quadrants' children among the refined quadrants of a link's mask.
+inline __m128i child_offsets(std::uint32_t link) {
+  return _mm_load_si128(reinterpret_cast<const __m128i*>(kChildOffsets[link & 15u]));
 }
 
 inline __m128 abs_ps(__m128 x) {
@@ -91,127 +119,309 @@ inline __m128 load_bound_codes(const std::uint32_t* p) {
       _mm_add_epi32(_mm_slli_epi32(codes, 20), _mm_set1_epi32(int(kBoundCodeBias))));
 }
 
-template <int C>
-inline void store_lane_sums(const __m128 (&v)[C], float* out) {
-  if constexpr (C == 1) {
-    const __m128 pairs = _mm_add_ps(v[0], _mm_movehl_ps(v[0], v[0]));
-    _mm_store_ss(out, _mm_add_ss(pairs, _mm_shuffle_ps(pairs, pairs, 1)));
-  } else {
-    const __m128 t = _mm_hadd_ps(v[0], v[1]);
-    const __m128 u = _mm_hadd_ps(v[2], v[2]);
-    _mm_storeu_ps(out, _mm_hadd_ps(t, u));
-  }
+inline float lane_sum(__m128 v) {
+  const __m128 pairs = _mm_add_ps(v, _mm_movehl_ps(v, v));
+  return _mm_cvtss_f32(_mm_add_ss(pairs, _mm_shuffle_ps(pairs, pairs, 1)));
 }
+
+// What a descent needs to know of its two trees: node words, where the bound codes sit, and the
+// constants that bring sums to the trees' scales and an accuracy target to unscaled units.
+template <int CA, int CB>
+struct DescentConstants {
+  static constexpr int C = CA > CB ? CA : CB;
+  const std::uint32_t* a;
+  const std::uint32_t* b;
+  std::size_t words_a, words_b;
+  std::size_t codes_a, codes_b;  // word offset of the bound codes in a node
+  float value_scale, bound_scale;
+  float values_in_bound_units, linf_a_scale, linf_b_scale;
+  bool targeted;
+  // A pair stops in a channel when its product term <= per_product |a b| + allowed[c] (bound
+  // units): term + kRoundingPerMagnitude |a b| <= accuracy / 2 (|a b| + E), E the roots' product.
+  float per_product;
+  float allowed[C];
+
+  DescentConstants(const PackedTreeView& ta, const PackedTreeView& tb, double accuracy)
+      : a(ta.words().data()),
+        b(tb.words().data()),
+        words_a(ta.shape().words_per_node()),
+        words_b(tb.shape().words_per_node()),
+        codes_a(1 + 2 * ta.shape().groups * CA),
+        codes_b(1 + 2 * tb.shape().groups * CB),
+        targeted(accuracy > 0) {
+    // Sums are kept without the trees' scales: values and rounding terms in units of
+    // value_scale_a value_scale_b, bound products in units of bound_scale_a bound_scale_b; the
+    // largest-deviation alternatives are brought to the latter's units.
+    const TreeScales& sa = ta.scales();
+    const TreeScales& sb = tb.scales();
+    bound_scale = sa.bound_scale * sb.bound_scale;
+    value_scale = sa.value_scale * sb.value_scale;
+    values_in_bound_units = value_scale / bound_scale;
+    linf_a_scale = sb.value_scale / sb.bound_scale;
+    linf_b_scale = sa.value_scale / sa.bound_scale;
+    per_product = float((accuracy / 2 - kRoundingPerMagnitude) * values_in_bound_units);
+    for (int c = 0; c < C; ++c) {
+      const float product = lane_sum(abs_ps(_mm_mul_ps(
+          load_halves(a + 1 + 2 * (CA == 1 ? 0 : c)), load_halves(b + 1 + 2 * (CB == 1 ? 0 : c)))));
+      allowed[c] = float(accuracy / 2 * (double(product) / 4) * values_in_bound_units);
+    }
+  }
+};
+
+// The largest-deviation alternatives to the product term sa sb, in its units (see
+// packed_pair_bound), for trees with linf bounds: on SSE registers, and on AVX-512 below.
+template <bool kLinfA, bool kLinfB, int CA, int CB>
+__m128 linf_terms(const DescentConstants<CA, CB>& k, __m128 term, __m128 sa, __m128 sb, __m128 va,
+                  __m128 vb) {
+  const __m128 abs_a = abs_ps(va), abs_b = abs_ps(vb);
+  const __m128 ulp = _mm_set1_ps(float(kHalfRounding));
+  const __m128 floor = _mm_set1_ps(float(kHalfSubnormalRounding));
+  const __m128 da = _mm_add_ps(_mm_mul_ps(abs_a, ulp), floor);
+  const __m128 db = _mm_add_ps(_mm_mul_ps(abs_b, ulp), floor);
+  const __m128 values = _mm_set1_ps(k.values_in_bound_units);
+  if constexpr (kLinfA)
+    term = _mm_min_ps(term, _mm_add_ps(_mm_mul_ps(_mm_mul_ps(sa, _mm_add_ps(abs_b, db)),
+                                                  _mm_set1_ps(k.linf_a_scale)),
+                                       _mm_mul_ps(_mm_mul_ps(abs_b, da), values)));
+  if constexpr (kLinfB)
+    term = _mm_min_ps(term, _mm_add_ps(_mm_mul_ps(_mm_mul_ps(sb, _mm_add_ps(abs_a, da)),
+                                                  _mm_set1_ps(k.linf_b_scale)),
+                                       _mm_mul_ps(_mm_mul_ps(abs_a, db), values)));
+  return term;
+}
+
+// Per-pair arithmetic on SSE registers: four quadrants of one channel in each.
+template <int CA, int CB, int GA, bool kLinfA, bool kLinfB>
+struct NarrowPairs {
+  static constexpr int C = CA > CB ? CA : CB;
+  struct Sums {
+    __m128 value[GA][C];
+    __m128 bound[C];      // product terms, in units of the bound scales
+    __m128 magnitude[C];  // area |a b|, for the halves' rounding, in units of the value scales
+    Sums() {
+      for (int c = 0; c < C; ++c) {
+        for (int g = 0; g < GA; ++g)
+          value[g][c] = _mm_setzero_ps();
+        bound[c] = magnitude[c] = _mm_setzero_ps();
+      }
+    }
+    void add(const Sums& o) {
+      for (int c = 0; c < C; ++c) {
+        for (int g = 0; g < GA; ++g)
+          value[g][c] = _mm_add_ps(value[g][c], o.value[g][c]);
+        bound[c] = _mm_add_ps(bound[c], o.bound[c]);
+        magnitude[c] = _mm_add_ps(magnitude[c], o.magnitude[c]);
+      }
+    }
+    float value_of(int g, int c) const { return lane_sum(value[g][c]); }
+    float bound_of(int c) const { return lane_sum(bound[c]); }
+    float magnitude_of(int c) const { return lane_sum(magnitude[c]); }
+  };
+
+  // Adds the pair's quadrants that stop (leaves, or within the accuracy target) and returns
+  // the internal quadrants that go on.
+  static unsigned visit(const DescentConstants<CA, CB>& k, const std::uint32_t* wa,
+                        const std::uint32_t* wb, unsigned internal, float area, Sums& sums) {
+    __m128 va[C], vb[C], product[C], term[C];
+    for (int c = 0; c < C; ++c) {
+      va[c] = load_halves(wa + 1 + 2 * (CA == 1 ? 0 : c));
+      vb[c] = load_halves(wb + 1 + 2 * (CB == 1 ? 0 : c));
+      product[c] = _mm_mul_ps(va[c], vb[c]);
+      const __m128 sa = load_bound_codes(wa + k.codes_a + (CA == 1 ? 0 : c));
+      const __m128 sb = load_bound_codes(wb + k.codes_b + (CB == 1 ? 0 : c));
+      term[c] = _mm_mul_ps(sa, sb);
+      if constexpr (kLinfA || kLinfB)
+        term[c] = linf_terms<kLinfA, kLinfB>(k, term[c], sa, sb, va[c], vb[c]);
+    }
+    if (k.targeted) {
+      __m128 enough = _mm_castsi128_ps(_mm_set1_epi32(-1));
+      for (int c = 0; c < C; ++c) {
+        const __m128 allowed = _mm_add_ps(
+            _mm_mul_ps(_mm_set1_ps(k.per_product), abs_ps(product[c])), _mm_set1_ps(k.allowed[c]));
+        enough = _mm_and_ps(enough, _mm_cmple_ps(term[c], allowed));
+      }
+      internal &= ~unsigned(_mm_movemask_ps(enough));
+    }
+    const __m128 leaf_area = _mm_andnot_ps(lanes_of(internal), _mm_set1_ps(area));
+    for (int c = 0; c < C; ++c) {
+      sums.value[0][c] = _mm_add_ps(sums.value[0][c], _mm_mul_ps(product[c], leaf_area));
+      for (int g = 1; g < GA; ++g) {
+        const __m128 vg = load_halves(wa + 1 + 2 * (g * CA + (CA == 1 ? 0 : c)));
+        sums.value[g][c] =
+            _mm_add_ps(sums.value[g][c], _mm_mul_ps(_mm_mul_ps(vg, vb[c]), leaf_area));
+      }
+      sums.bound[c] = _mm_add_ps(sums.bound[c], _mm_mul_ps(term[c], leaf_area));
+      sums.magnitude[c] = _mm_add_ps(sums.magnitude[c], _mm_mul_ps(abs_ps(product[c]), leaf_area));
+    }
+    return internal;
+  }
+};
+
+#if defined(__AVX512F__) && defined(__AVX512BW__) && defined(__AVX512VL__)
+
+inline __m512 abs512(__m512 x) {
+  return _mm512_castsi512_ps(
+      _mm512_and_si512(_mm512_castps_si512(x), _mm512_set1_epi32(0x7fffffff)));
+}
+
+template <bool kLinfA, bool kLinfB, int CA, int CB>
+__m512 linf_terms(const DescentConstants<CA, CB>& k, __m512 term, __m512 sa, __m512 sb, __m512 va,
+                  __m512 vb) {
+  const __m512 abs_a = abs512(va), abs_b = abs512(vb);
+  const __m512 ulp = _mm512_set1_ps(float(kHalfRounding));
+  const __m512 floor = _mm512_set1_ps(float(kHalfSubnormalRounding));
+  const __m512 da = _mm512_add_ps(_mm512_mul_ps(abs_a, ulp), floor);
+  const __m512 db = _mm512_add_ps(_mm512_mul_ps(abs_b, ulp), floor);
+  const __m512 values = _mm512_set1_ps(k.values_in_bound_units);
+  if constexpr (kLinfA)
+    term =
+        _mm512_maskz_min_ps(0xffff, term,
+                            _mm512_add_ps(_mm512_mul_ps(_mm512_mul_ps(sa, _mm512_add_ps(abs_b, db)),
+                                                        _mm512_set1_ps(k.linf_a_scale)),
+                                          _mm512_mul_ps(_mm512_mul_ps(abs_b, da), values)));
+  if constexpr (kLinfB)
+    term =
+        _mm512_maskz_min_ps(0xffff, term,
+                            _mm512_add_ps(_mm512_mul_ps(_mm512_mul_ps(sb, _mm512_add_ps(abs_a, da)),
+                                                        _mm512_set1_ps(k.linf_b_scale)),
+                                          _mm512_mul_ps(_mm512_mul_ps(abs_a, db), values)));
+  return term;
+}
+
+// Per-pair arithmetic on AVX-512 registers: the four quadrants of all three channels in one
+// register (lanes 4c .. 4c + 3 hold channel c), a grey side repeated in all three.
+template <int CA, int CB, int GA, bool kLinfA, bool kLinfB>
+struct WidePairs {
+  static constexpr int C = 3;
+  static constexpr __mmask16 kLanes = 0x0fff;
+  struct Sums {
+    __m512 value[GA];
+    __m512 bound = _mm512_setzero_ps();
+    __m512 magnitude = _mm512_setzero_ps();
+    Sums() {
+      for (int g = 0; g < GA; ++g)
+        value[g] = _mm512_setzero_ps();
+    }
+    void add(const Sums& o) {
+      for (int g = 0; g < GA; ++g)
+        value[g] = _mm512_add_ps(value[g], o.value[g]);
+      bound = _mm512_add_ps(bound, o.bound);
+      magnitude = _mm512_add_ps(magnitude, o.magnitude);
+    }
+    static float lanes(__m512 v, int c) {
+      alignas(64) float lane[16];
+      _mm512_store_ps(lane, v);
+      return (lane[4 * c] + lane[4 * c + 1]) + (lane[4 * c + 2] + lane[4 * c + 3]);
+    }
+    float value_of(int g, int c) const { return lanes(value[g], c); }
+    float bound_of(int c) const { return lanes(bound, c); }
+    float magnitude_of(int c) const { return lanes(magnitude, c); }
+  };
+
+  // The halves of group g of a node of `channels` channels, as 12 lanes.
+  static __m512 values(const std::uint32_t* w, int channels, int g) {
+    const std::uint32_t* p = w + 1 + 2 * g * channels;
+    if (channels == 1) return _mm512_maskz_broadcast_f32x4(0xffff, load_halves(p));
+    return _mm512_maskz_cvtph_ps(0xffff, _mm256_maskz_loadu_epi16(kLanes, p));
+  }
+  // The bound codes of a node of `channels` channels at word offset `codes`, as 12 lanes.
+  static __m512 bounds(const std::uint32_t* w, int channels, std::size_t codes) {
+    const __m128i bytes =
+        channels == 1 ? _mm_set1_epi32(int(w[codes])) : _mm_maskz_loadu_epi8(kLanes, w + codes);
+    return _mm512_castsi512_ps(_mm512_add_epi32(
+        _mm512_maskz_slli_epi32(0xffff, _mm512_maskz_cvtepu8_epi32(0xffff, bytes), 20),
+        _mm512_set1_epi32(int(kBoundCodeBias))));
+  }
+
+  static unsigned visit(const DescentConstants<CA, CB>& k, const std::uint32_t* wa,
+                        const std::uint32_t* wb, unsigned internal, float area, Sums& sums) {
+    const __m512 va = values(wa, CA, 0), vb = values(wb, CB, 0);
+    const __m512 product = _mm512_mul_ps(va, vb);
+    const __m512 sa = bounds(wa, CA, k.codes_a), sb = bounds(wb, CB, k.codes_b);
+    __m512 term = _mm512_mul_ps(sa, sb);
+    if constexpr (kLinfA || kLinfB) term = linf_terms<kLinfA, kLinfB>(k, term, sa, sb, va, vb);
+    if (k.targeted) {
+      const __m512 allowed = _mm512_add_ps(
+          _mm512_mul_ps(_mm512_set1_ps(k.per_product), abs512(product)),
+          _mm512_setr_ps(k.allowed[0], k.allowed[0], k.allowed[0], k.allowed[0], k.allowed[1],
+                         k.allowed[1], k.allowed[1], k.allowed[1], k.allowed[2], k.allowed[2],
+                         k.allowed[2], k.allowed[2], 0, 0, 0, 0));
+      const unsigned within = _mm512_cmp_ps_mask(term, allowed, _CMP_LE_OQ);
+      internal &= ~(within & within >> 4 & within >> 8 & 15u);
+    }
+    const unsigned leaves = ~internal & 15u;
+    const __mmask16 stop = __mmask16(leaves | leaves << 4 | leaves << 8);
+    const __m512 area_v = _mm512_set1_ps(area);
+    sums.value[0] =
+        _mm512_mask_add_ps(sums.value[0], stop, sums.value[0], _mm512_mul_ps(product, area_v));
+    for (int g = 1; g < GA; ++g)
+      sums.value[g] =
+          _mm512_mask_add_ps(sums.value[g], stop, sums.value[g],
+                             _mm512_mul_ps(_mm512_mul_ps(values(wa, CA, g), vb), area_v));
+    sums.bound = _mm512_mask_add_ps(sums.bound, stop, sums.bound, _mm512_mul_ps(term, area_v));
+    sums.magnitude = _mm512_mask_add_ps(sums.magnitude, stop, sums.magnitude,
+                                        _mm512_mul_ps(abs512(product), area_v));
+    return internal;
+  }
+};
+
+#endif  // AVX-512
 
 // Breadth-first simultaneous descent of packed trees a (groups 0..GA-1) and b (group 0): pairs
 // are taken first in, first out from a ring, so that consecutive pairs do not depend on each
 // other and, nodes lying breadth first, each level's nodes are read in increasing address
-// order. Values and bounds are summed without the trees' scales, applied once at the end.
-template <int CA, int CB, int GA, bool kLinfA, bool kLinfB>
+// order. Each pair's arithmetic is the policy's (SSE, or AVX-512 for RGB); sums are kept
+// without the trees' scales, applied once at the end.
+template <typename Pairs, int CA, int CB>
 class PackedDescent {
  public:
-  static constexpr int C = CA > CB ? CA : CB;
-  struct Sums {
-    __m128 value[GA][C];
-    __m128 bound[C];     // bound products, in units of the bound scales
-    __m128 rounding[C];  // the values' rounding terms, in units of the value scales
-  };
+  using Sums = typename Pairs::Sums;
 
   PackedDescent(const PackedTreeView& a, const PackedTreeView& b, double accuracy)
-      : a_(a.words().data()),
-        b_(b.words().data()),
-        words_a_(a.shape().words_per_node()),
-        words_b_(b.shape().words_per_node()),
-        codes_a_(1 + 2 * a.shape().groups * CA),
-        codes_b_(1 + 2 * b.shape().groups * CB),
-        accuracy_(float(accuracy)) {
-    // Sums are kept without the trees' scales: values and the rounding terms in units of
-    // value_scale_a value_scale_b, bound products in units of bound_scale_a bound_scale_b; the
-    // largest-deviation alternatives are brought to the latter's units.
-    const TreeScales& sa = a.scales();
-    const TreeScales& sb = b.scales();
-    bound_scale_ = sa.bound_scale * sb.bound_scale;
-    value_scale_ = sa.value_scale * sb.value_scale;
-    values_in_bound_units_ = _mm_set1_ps(value_scale_ / bound_scale_);
-    linf_a_scale_ = _mm_set1_ps(sb.value_scale / sb.bound_scale);
-    linf_b_scale_ = _mm_set1_ps(sa.value_scale / sa.bound_scale);
-    // The accuracy test, in bound units: product + rounding x values_in_bound_units <=
-    // accuracy |a b| values_in_bound_units.
-    accuracy_unscaled_ = _mm_set1_ps(float(accuracy * value_scale_ / bound_scale_));
-  }
+      : k_(a, b, accuracy) {}
 
   Sums run(std::uint32_t root_a, std::uint32_t root_b, float quadrant_area, int depth) const {
     if (depth > kMaxTreeLevels) throw std::runtime_error("quadtree deeper than its resolution");
     Sums sums;
-    for (int c = 0; c < C; ++c) {
-      for (int g = 0; g < GA; ++g)
-        sums.value[g][c] = _mm_setzero_ps();
-      sums.bound[c] = sums.rounding[c] = _mm_setzero_ps();
-    }
-    std::uint32_t ring[kRing][2];
+    alignas(16) std::uint32_t ring[kRing][2];
     unsigned head = 0, tail = 0, level_end = 0;
     float area = quadrant_area;
     std::uint32_t na = root_a, nb = root_b;
     for (;;) {
-      const std::uint32_t* wa = a_ + std::size_t(na) * words_a_;
-      const std::uint32_t* wb = b_ + std::size_t(nb) * words_b_;
+      const std::uint32_t* wa = k_.a + std::size_t(na) * k_.words_a;
+      const std::uint32_t* wb = k_.b + std::size_t(nb) * k_.words_b;
       const std::uint32_t la = wa[0], lb = wb[0];
-      unsigned internal = la & lb & 0xFu;
-      __m128 va[C], vb[C], term[C], rounding[C];
-      const __m128 half_ulp = _mm_set1_ps(float(kHalfRounding));
-      const __m128 subnormal = _mm_set1_ps(float(kHalfSubnormalRounding));
-      for (int c = 0; c < C; ++c) {
-        va[c] = load_halves(wa + 1 + 2 * (CA == 1 ? 0 : c));
-        vb[c] = load_halves(wb + 1 + 2 * (CB == 1 ? 0 : c));
-        const __m128 abs_a = abs_ps(va[c]), abs_b = abs_ps(vb[c]);
-        const __m128 da = _mm_add_ps(_mm_mul_ps(half_ulp, abs_a), subnormal);
-        const __m128 db = _mm_add_ps(_mm_mul_ps(half_ulp, abs_b), subnormal);
-        const __m128 sa = load_bound_codes(wa + codes_a_ + (CA == 1 ? 0 : c));
-        const __m128 sb = load_bound_codes(wb + codes_b_ + (CB == 1 ? 0 : c));
-        rounding[c] = _mm_add_ps(_mm_mul_ps(abs_a, db), _mm_mul_ps(abs_b, da));
-        term[c] = _mm_mul_ps(sa, sb);
-        if constexpr (kLinfA)
-          term[c] = _mm_min_ps(
-              term[c], _mm_add_ps(_mm_mul_ps(_mm_mul_ps(sa, _mm_add_ps(abs_b, db)), linf_a_scale_),
-                                  _mm_mul_ps(_mm_mul_ps(abs_b, da), values_in_bound_units_)));
-        if constexpr (kLinfB)
-          term[c] = _mm_min_ps(
-              term[c], _mm_add_ps(_mm_mul_ps(_mm_mul_ps(sb, _mm_add_ps(abs_a, da)), linf_b_scale_),
-                                  _mm_mul_ps(_mm_mul_ps(abs_a, db), values_in_bound_units_)));
-      }
-      if (internal && accuracy_ > 0) {
-        __m128 enough = _mm_castsi128_ps(_mm_set1_epi32(-1));
-        for (int c = 0; c < C; ++c) {
-          const __m128 bound = _mm_add_ps(term[c], _mm_mul_ps(rounding[c], values_in_bound_units_));
-          const __m128 allowed = _mm_mul_ps(accuracy_unscaled_, abs_ps(_mm_mul_ps(va[c], vb[c])));
-          enough = _mm_and_ps(enough, _mm_cmple_ps(bound, allowed));
-        }
-        internal &= ~unsigned(_mm_movemask_ps(enough));
-      }
-      const __m128 leaf_area = _mm_andnot_ps(lanes_of(internal), _mm_set1_ps(area));
-      for (int c = 0; c < C; ++c) {
-        const __m128 weighted_b = _mm_mul_ps(vb[c], leaf_area);
-        sums.value[0][c] = _mm_add_ps(sums.value[0][c], _mm_mul_ps(va[c], weighted_b));
-        for (int g = 1; g < GA; ++g) {
-          const __m128 vg = load_halves(wa + 1 + 2 * (g * CA + (CA == 1 ? 0 : c)));
-          sums.value[g][c] = _mm_add_ps(sums.value[g][c], _mm_mul_ps(vg, weighted_b));
-        }
-        sums.bound[c] = _mm_add_ps(sums.bound[c], _mm_mul_ps(term[c], leaf_area));
-        sums.rounding[c] = _mm_add_ps(sums.rounding[c], _mm_mul_ps(rounding[c], leaf_area));
-      }
-      if (internal) {
-        if (tail - head > kRing - 4) [[unlikely]] {
-          // No room: descend this pair's internal quadrants now, each in a nested call.
+      const unsigned internal = Pairs::visit(k_, wa, wb, la & lb & 0xFu, area, sums);
+      // Without a branch on the data (which no predictor learns): every quadrant's pair is
+      // written, the tail passes the internal ones.
+      if (tail - head > kRing - 4) [[unlikely]] {
+        // No room: descend this pair's internal quadrants now, each in a nested call.
+        for (unsigned q = 0; q < 4; ++q)
+          if (internal >> q & 1)
+            sums.add(run(first_child(la, q), first_child(lb, q), area * 0.25f, depth + 1));
+      } else {
+        {
+          const __m128i ca = _mm_add_epi32(_mm_set1_epi32(int(la >> 4)), child_offsets(la));
+          const __m128i cb = _mm_add_epi32(_mm_set1_epi32(int(lb >> 4)), child_offsets(lb));
+          const __m128i low = _mm_unpacklo_epi32(ca, cb), high = _mm_unpackhi_epi32(ca, cb);
+          // The children are read when their level comes: ask for them now, so that memory
+          // latency overlaps the rest of this level (prefetches never fault).
+          alignas(16) std::uint32_t children[4];
+          _mm_store_si128(reinterpret_cast<__m128i*>(children), cb);
           for (unsigned q = 0; q < 4; ++q)
             if (internal >> q & 1)
-              add(sums, run(first_child(la, q), first_child(lb, q), area * 0.25f, depth + 1));
-        } else {
-          for (unsigned q = 0; q < 4; ++q)
-            if (internal >> q & 1) {
-              ring[tail & kMask][0] = first_child(la, q);
-              ring[tail & kMask][1] = first_child(lb, q);
-              ++tail;
-            }
+              _mm_prefetch(
+                  reinterpret_cast<const char*>(k_.b + std::size_t(children[q]) * k_.words_b),
+                  _MM_HINT_T0);
+          auto slot = [&] { return reinterpret_cast<__m128i*>(&ring[tail & kMask]); };
+          _mm_storel_epi64(slot(), low);
+          tail += internal & 1;
+          _mm_storel_epi64(slot(), _mm_srli_si128(low, 8));
+          tail += internal >> 1 & 1;
+          _mm_storel_epi64(slot(), high);
+          tail += internal >> 2 & 1;
+          _mm_storel_epi64(slot(), _mm_srli_si128(high, 8));
+          tail += internal >> 3 & 1;
         }
       }
       if (head == tail) break;
@@ -226,51 +436,39 @@ class PackedDescent {
     return sums;
   }
 
-  float value_scale() const { return value_scale_; }
-  float bound_scale() const { return bound_scale_; }
+  const DescentConstants<CA, CB>& constants() const { return k_; }
 
  private:
   static constexpr unsigned kRing = 256, kMask = kRing - 1;
 
   static std::uint32_t first_child(std::uint32_t link, unsigned q) {
-    return (link >> 4) + std::uint32_t(std::popcount(link & ((1u << q) - 1)));
-  }
-  static void add(Sums& to, const Sums& from) {
-    for (int c = 0; c < C; ++c) {
-      for (int g = 0; g < GA; ++g)
-        to.value[g][c] = _mm_add_ps(to.value[g][c], from.value[g][c]);
-      to.bound[c] = _mm_add_ps(to.bound[c], from.bound[c]);
-      to.rounding[c] = _mm_add_ps(to.rounding[c], from.rounding[c]);
-    }
+    return (link >> 4) + kChildOffsets[link & 15u][q];
   }
 
-  const std::uint32_t* a_;
-  const std::uint32_t* b_;
-  std::size_t words_a_, words_b_;
-  std::size_t codes_a_, codes_b_;  // word offset of the bound codes in a node
-  float accuracy_;
-  float value_scale_ = 1, bound_scale_ = 1;
-  __m128 values_in_bound_units_, linf_a_scale_, linf_b_scale_, accuracy_unscaled_;
+  DescentConstants<CA, CB> k_;
 };
 
 template <int CA, int CB, int GA, bool kLinfA, bool kLinfB>
 GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, double accuracy) {
-  using Descent = PackedDescent<CA, CB, GA, kLinfA, kLinfB>;
-  const Descent descent(a, b, accuracy);
-  const typename Descent::Sums sums = descent.run(0, 0, 0.25f, 0);
+  constexpr int C = CA > CB ? CA : CB;
+#if defined(__AVX512F__) && defined(__AVX512BW__) && defined(__AVX512VL__)
+  using Pairs = std::conditional_t<C == 3, WidePairs<CA, CB, GA, kLinfA, kLinfB>,
+                                   NarrowPairs<CA, CB, GA, kLinfA, kLinfB>>;
+#else
+  using Pairs = NarrowPairs<CA, CB, GA, kLinfA, kLinfB>;
+#endif
+  const PackedDescent<Pairs, CA, CB> descent(a, b, accuracy);
+  const typename Pairs::Sums sums = descent.run(0, 0, 0.25f, 0);
+  const DescentConstants<CA, CB>& k = descent.constants();
   GroupConvolution result;
-  float lanes[4];
-  for (int g = 0; g < GA; ++g) {
-    store_lane_sums<Descent::C>(sums.value[g], lanes);
-    for (int c = 0; c < 3; ++c)
-      result.value[g][c] = lanes[Descent::C == 1 ? 0 : c] * descent.value_scale();
+  for (int c = 0; c < 3; ++c) {
+    const int lane = C == 1 ? 0 : c;
+    for (int g = 0; g < GA; ++g)
+      result.value[g][c] = sums.value_of(g, lane) * k.value_scale;
+    result.bound[c] =
+        float(double(sums.bound_of(lane)) * k.bound_scale +
+              (kRoundingPerMagnitude * sums.magnitude_of(lane) + kRoundingFloor) * k.value_scale);
   }
-  float rounding[4];
-  store_lane_sums<Descent::C>(sums.bound, lanes);
-  store_lane_sums<Descent::C>(sums.rounding, rounding);
-  for (int c = 0; c < 3; ++c)
-    result.bound[c] = lanes[Descent::C == 1 ? 0 : c] * descent.bound_scale() +
-                      rounding[Descent::C == 1 ? 0 : c] * descent.value_scale();
   return result;
 }
 
@@ -290,11 +488,11 @@ GroupConvolution dispatch_simd(const PackedTreeView& a, const PackedTreeView& b,
   return by_kinds.template operator()<3, 3>();
 }
 
-#endif  // BASIS_PACKED_SIMD
+#endif  // SSE4.1 and F16C
 
 GroupConvolution dispatch(const PackedTreeView& a, const PackedTreeView& b, int groups,
                           double accuracy) {
-#if defined(BASIS_PACKED_SIMD)
+#if defined(__SSE4_1__) && defined(__F16C__)
   check_compatible(a.shape(), b.shape());
   switch (groups) {
     case 1:

@@ -11,13 +11,21 @@ struct ScalarSums {
   double bound[3] = {};
 };
 
+// What an accuracy-targeted descent may spend per unit area of a pair, per channel:
+// accuracy / 2 x (|a b| + estimate), estimate the whole integral as the roots' quadrants give
+// it. Summed over the pairs where it stops, at most accuracy / 2 x (the value + estimate).
+struct AccuracyTarget {
+  double accuracy = 0;
+  double estimate[3] = {};
+};
+
 // Groups 0 .. groups-1 of a against group 0 of b over the cell of nodes (na, nb), whose
 // quadrants have the given area. Where either quadrant is a leaf, or (accuracy > 0) where in
-// every channel the pair's bound pair_bound(na, nb, ca, cb, q, va, vb) is at most accuracy
-// times |va vb|, the pair adds area va vb and area times its bound; elsewhere it descends.
+// every channel the pair's bound pair_bound(na, nb, ca, cb, q, va, vb) is within the target,
+// the pair adds area va vb and area times its bound; elsewhere it descends.
 template <typename A, typename B, typename PairBound>
 void descend_scalar(const A& a, const B& b, int na, int nb, double area, int channels, int groups,
-                    double accuracy, const PairBound& pair_bound, ScalarSums& sums) {
+                    const AccuracyTarget& target, const PairBound& pair_bound, ScalarSums& sums) {
   const int ca_count = a.shape().channels, cb_count = b.shape().channels;
   for (int q = 0; q < 4; ++q) {
     const int child_a = a.child(na, q), child_b = b.child(nb, q);
@@ -29,13 +37,14 @@ void descend_scalar(const A& a, const B& b, int na, int nb, double area, int cha
       vb[c] = b.value(nb, 0, cb, q);
       bound[c] = pair_bound(na, nb, ca, cb, q, va[c], vb[c]);
     }
-    if (!stop && accuracy > 0) {
+    if (!stop && target.accuracy > 0) {
       stop = true;
       for (int c = 0; c < channels; ++c)
-        if (!(bound[c] <= accuracy * std::abs(va[c] * vb[c]))) stop = false;
+        if (!(bound[c] <= target.accuracy / 2 * (std::abs(va[c] * vb[c]) + target.estimate[c])))
+          stop = false;
     }
     if (!stop) {
-      descend_scalar(a, b, child_a, child_b, area / 4, channels, groups, accuracy, pair_bound,
+      descend_scalar(a, b, child_a, child_b, area / 4, channels, groups, target, pair_bound,
                      sums);
       continue;
     }

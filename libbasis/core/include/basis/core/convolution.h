@@ -56,9 +56,11 @@ Rgb convolve_product(std::span<const QuadtreeView> factors);
 
 struct ConvolutionOptions {
   // Accuracy-targeted descent: a pair of internal quadrants also stops (its product taken as
-  // a * b * area, the exact integral of the two quadrants' averages) once, in every channel, its
-  // certified bound is at most `accuracy` times its contribution |a b| area, so that the
-  // reported bound stays within about `accuracy` of the value. 0 descends to the leaves.
+  // a * b * area, the integral of the two quadrants' averages) once, in every channel, its
+  // certified bound is at most accuracy / 2 x (|a b| + E) area, E the whole integral as the
+  // roots' quadrants estimate it. The bounds of such stops add up to at most accuracy / 2 x
+  // (value + E): the reported bound stays within about `accuracy` of the value (plus what the
+  // leaves contribute). 0 descends to the leaves.
   double accuracy = 0;
 };
 
