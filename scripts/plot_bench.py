@@ -12,17 +12,24 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-STYLE = {"quadtree": "tab:green", "dense_naive": "tab:gray", "dense_simd": "black",
-         "sh": "tab:blue", "haar": "tab:purple"}
+STYLE = {"quadtree": "tab:green", "quadtree_targeted": "tab:olive", "dense_naive": "tab:gray",
+         "dense_simd": "black", "sh": "tab:blue", "haar": "tab:purple"}
 
 
 def series(rows):
-    """Curves per method: quadtree one per resolution (tolerance varies), others by param."""
+    """Curves per method: quadtree one per resolution (tolerance varies), accuracy-targeted
+    quadtrees one per resolution at the default 5 % tolerance (the target varies), others by
+    param."""
     curves = {}
     for r in rows:
         if r["method"] == "quadtree":
             n, tol = r["param"].split("@")
             curves.setdefault(f"quadtree {n}²", []).append((float(tol), r))
+        elif r["method"] == "quadtree_targeted":
+            tree, accuracy = r["param"].split("~")
+            n, tol = tree.split("@")
+            if float(tol) == 0.05:
+                curves.setdefault(f"quadtree_targeted {n}²", []).append((float(accuracy), r))
         else:
             curves.setdefault(r["method"], []).append((float(r["param"]), r))
     return {k: [r for _, r in sorted(v, key=lambda p: p[0])] for k, v in curves.items()}
@@ -40,7 +47,7 @@ def panel_grid(rows, x_key, x_label, path):
                 method = name.split()[0]
                 xs = [float(r[x_key]) for r in curve]
                 ys = [max(float(r["rel_error"]), 1e-6) * 100 for r in curve]
-                alpha = 1.0 if method != "quadtree" else 0.5 + 0.5 * (name.endswith("128²") or name.endswith("256²"))
+                alpha = 1.0 if not method.startswith("quadtree") else 0.5 + 0.5 * (name.endswith("128²") or name.endswith("256²"))
                 axis.plot(xs, ys, marker="o", markersize=3, color=STYLE.get(method, "tab:red"),
                           alpha=alpha, label=name, linestyle="--" if method == "dense_naive" else "-")
             axis.set_xscale("log")

@@ -37,7 +37,8 @@ int main(int argc, char** argv) {
   CLI::App app(
       "The speed-versus-accuracy chart: BRDF slices (Lambert, Phong 10/100/1000, GGX "
       "0.5/0.1/0.02) against captures of a real HDR map with a sun (with and without an "
-      "occluder), in the quadtree (several resolutions and tolerances), dense grids (8^2 to "
+      "occluder, and at points of a real scene, averaged over them), in packed quadtrees "
+      "(several resolutions and tolerances, full and accuracy-targeted descents), dense grids (8^2 to "
       "256^2, naive and vectorised), real spherical harmonics (orders 2 to 16) and Haar "
       "wavelets (16 to 1024 kept coefficients). Ground truth: the integral of the exact BRDF "
       "over the map's pixels, occlusion traced per pixel. Writes DIR/results.csv "
@@ -45,9 +46,9 @@ int main(int argc, char** argv) {
       "and the charts DIR/chart.png, DIR/storage.png, DIR/rotation.png (matplotlib through "
       "/usr/bin/python3; the numbers come from here).",
       "qtbench");
-  std::string out_dir, map, measured;
+  std::string out_dir, map, measured, scene = std::string(BASIS_SOURCE_DIR) + "/data/scene.obj";
   bool quick = false;
-  int threads = 0;
+  int threads = 0, scene_points = 0;
   app.add_option("--out", out_dir, "output folder (created if missing)")->required();
   app.add_flag("--quick", quick, "three panels, one light, fewer parameters: under a minute");
   app.add_option("--map", map,
@@ -56,6 +57,12 @@ int main(int argc, char** argv) {
   app.add_option("--measured", measured,
                  "an RGL EPFL .bsdf file to add as a panel (default: ../shared/data/rgl-bsdf's "
                  "satin_rosaline when present)");
+  app.add_option("--scene", scene,
+                 "OBJ scene of the real-scene panel: captures at points sampled on it, errors and "
+                 "times averaged over them (default: data/scene.obj, the main job's)");
+  app.add_option("--scene-points", scene_points,
+                 "points of the real-scene panel (default 24, 6 with --quick; 0 leaves it out)")
+      ->check(CLI::Range(0, 10000));
   app.add_option("--threads", threads, "worker threads for the preparation (timings run on one)")
       ->check(CLI::Range(1, 1024));
   app.set_version_flag("--version", basis::kVersion);
@@ -65,7 +72,8 @@ int main(int argc, char** argv) {
     if (map.empty()) map = "/usr/share/blender/datafiles/studiolights/world/sunrise.exr";
     const basis::Environment env(basis::read_image(map), 0, map);
     std::filesystem::create_directories(out_dir);
-    basis::SpeedStudyOptions options{.quick = quick, .measured = measured};
+    basis::SpeedStudyOptions options{.quick = quick, .measured = measured, .scene = scene};
+    options.scene_points = app.count("--scene-points") ? scene_points : quick ? 6 : 24;
     if (options.measured.empty())
       for (const auto& folder : {std::string("../shared/data/rgl-bsdf"),
                                  std::string(BASIS_SOURCE_DIR) + "/../shared/data/rgl-bsdf"})

@@ -97,7 +97,12 @@ Convolution FileConvolution::operator()(std::size_t k) const {
 
 int FileConvolution::convolutions_per_result() const {
   if (!table_) return 1;
-  return shading_.normal && shading_.tilt_mode == TiltCompensation::compensated ? 8 : 4;
+  if (shading_.normal) return shading_.tilt_mode == TiltCompensation::compensated ? 8 : 4;
+  // Untilted: the entries around wo with a weight (lookups skip the others).
+  int taps = 0;
+  for (const TableTap& tap : table_taps(table_->brdf_table().wo_resolution, shading_.wo))
+    taps += tap.weight != 0;
+  return taps;
 }
 
 }  // namespace basis

@@ -9,6 +9,7 @@
 #include "basis/core/convolution.h"
 #include "basis/core/dense.h"
 #include "basis/core/projection.h"
+#include "basis/core/tree_set.h"
 #include "basis/study/haar.h"
 #include "basis/study/sh.h"
 #include "basis/study/timing.h"
@@ -58,16 +59,35 @@ std::vector<ComparisonRow> compare_methods(const ComparisonCase& c, const Compar
     if (n > finest) continue;
     const Grid brdf = downsample(c.brdf_grid, n), light = downsample(c.light_grid, n);
     for (double tolerance : o.quadtree_tolerances) {
+      // Packed trees, as tables and capture sets hold them; projection timed with packing.
       const ProjectionOptions p{.tolerance = tolerance};
-      const Quadtree a = project(brdf, p), b = project(light, p);
-      ComparisonRow r = row("quadtree", format("%g@%g", n, tolerance));
-      r.bytes = double((b.nodes.size() + b.errors.size()) * sizeof(Quad));
+      const PackedTree a = pack(project(brdf, p)), b = pack(project(light, p));
       QuadtreeProjector projector;
       Quadtree scratch;
-      r.project_ns = median_time_ns([&] { projector.project(light, p, scratch); }, t);
-      r.convolve_ns = median_time_ns([&] { keep(convolve_value(a.view(), b.view())[0]); }, t);
-      r.rel_error = relative_error(times_pi(convolve_value(a.view(), b.view())), c.truth);
-      rows.push_back(r);
+      const double project_ns = median_time_ns(
+          [&] {
+            projector.project(light, p, scratch);
+            keep(double(pack(scratch).words.size()));
+          },
+          t);
+      // Full descents, then accuracy-targeted ones.
+      std::vector<double> accuracies = {0};
+      accuracies.insert(accuracies.end(), o.quadtree_accuracies.begin(),
+                        o.quadtree_accuracies.end());
+      for (const double accuracy : accuracies) {
+        ComparisonRow r =
+            accuracy == 0 ? row("quadtree", format("%g@%g", n, tolerance))
+                          : row("quadtree_targeted",
+                                format("%g@%g", n, tolerance) + format("~%g", accuracy));
+        r.bytes = double(b.words.size() * sizeof(std::uint32_t) + sizeof(TreeExtent));
+        r.project_ns = project_ns;
+        const ConvolutionOptions options{.accuracy = accuracy};
+        r.convolve_ns =
+            median_time_ns([&] { keep(convolve(a.view(), b.view(), options).value[0]); }, t);
+        r.rel_error =
+            relative_error(times_pi(convolve(a.view(), b.view(), options).value), c.truth);
+        rows.push_back(r);
+      }
     }
   }
   // Dense grids: the box-filtered texels, a plain loop and a vectorised dot product.

@@ -17,6 +17,7 @@
 #include "basis/core/file_error.h"
 #include "basis/lighting/capture.h"
 #include "basis/lighting/embree_scene.h"
+#include "basis/lighting/mesh.h"
 #include "basis/study/reference.h"
 
 namespace basis {
@@ -69,20 +70,35 @@ std::vector<ComparisonCase> speed_study_cases(const Environment& environment,
   const Vec3 sun = environment.brightest_light()->direction;
   const EmbreeScene wall(occluding_wall(sun));
   const int finest = options.quick ? 128 : 256;
+  const int subsamples = options.quick ? 1 : 2;
+  // A light: a capture at a point with its frame, occluded by a scene or not.
   struct Light {
     std::string name;
     const RayScene* scene;
+    Vec3 position;
+    Frame frame;
     Grid grid;
   };
-  std::vector<Light> lights = {{"sun", nullptr, {}}};
-  if (!options.quick) lights.push_back({"sun+occluder", &wall, {}});
+  std::vector<Light> lights = {{"sun", nullptr, Vec3::Zero(), frame, {}}};
+  if (!options.quick) lights.push_back({"sun+occluder", &wall, Vec3::Zero(), frame, {}});
+  // The real-scene panel: points sampled on the scene's surfaces, each its own capture.
+  std::unique_ptr<EmbreeScene> scene;
+  if (!options.scene.empty() && options.scene_points > 0) {
+    const TriangleMesh mesh = read_obj(options.scene);
+    scene = std::make_unique<EmbreeScene>(mesh);
+    for (const SurfacePoint& p : sample_surface(mesh, std::size_t(options.scene_points), 7))
+      lights.push_back({"scene", scene.get(), p.position + p.normal * (1e-4 * mesh.extent()),
+                        Frame::from_normal(p.normal), {}});
+  }
   for (Light& l : lights)
-    l.grid = capture(environment, l.scene, Vec3::Zero(), frame, {.resolution = finest, .strata = 2})
+    l.grid = capture(environment, l.scene, l.position, l.frame, {.resolution = finest, .strata = 2})
                  .texels;
-  // Outgoing directions: where the sun's mirror image lies (the highlight), and oblique.
+  // Outgoing directions: where the sun's mirror image lies (the highlight), and oblique; at the
+  // scene's points 30 degrees from the normal.
   const Vec3 sun_local = frame.to_local(sun);
   std::vector<Vec3> outgoing = {Vec3(-sun_local.x(), -sun_local.y(), sun_local.z()).normalized()};
   if (!options.quick) outgoing.push_back(Vec3(std::sin(0.5), 0, std::cos(0.5)));
+  const std::vector<Vec3> scene_outgoing = {Vec3(0.5, 0, std::sqrt(0.75))};
 
   struct Job {
     const SpeedStudyPanel* panel;
@@ -92,7 +108,7 @@ std::vector<ComparisonCase> speed_study_cases(const Environment& environment,
   std::vector<Job> jobs;
   for (const SpeedStudyPanel& p : panels)
     for (const Light& l : lights)
-      for (const Vec3& wo : outgoing)
+      for (const Vec3& wo : l.name == "scene" ? scene_outgoing : outgoing)
         jobs.push_back({&p, &l, wo});
   std::vector<ComparisonCase> cases(jobs.size());
   std::atomic<std::size_t> prepared{0};
@@ -103,8 +119,8 @@ std::vector<ComparisonCase> speed_study_cases(const Environment& environment,
     o.wi_resolution = finest;
     cases[i] = {job.panel->name, job.light->name, tabulate_entry(job.panel->brdf, job.wo, o),
                 job.light->grid,
-                reference_reflection(environment, job.light->scene, Vec3::Zero(), frame,
-                                     job.panel->brdf, job.wo, options.quick ? 1 : 2)};
+                reference_reflection(environment, job.light->scene, job.light->position,
+                                     job.light->frame, job.panel->brdf, job.wo, subsamples)};
     control.report(++prepared, jobs.size());
   });
   return cases;

@@ -47,8 +47,8 @@ class FileConvolution {
   // The BRDF table, when one of the files is a table; the file it shades.
   const QtFile* table() const { return table_; }
   const QtFile& shaded() const { return *other_; }
-  // Tree-by-tree convolutions each result costs: 4 table entries per lookup, 8 with
-  // compensated tilts, 1 for products.
+  // Tree-by-tree convolutions each result costs: the table entries around wo with a weight
+  // (at most 4) per untilted lookup, 4 or 8 (compensated) per tilted one, 1 for products.
   int convolutions_per_result() const;
   // The BRDF the lights are shaded with, when it comes from the table's spec.
   const Brdf* light_brdf() const { return shading_.light_brdf; }

@@ -23,6 +23,10 @@ struct SpeedStudyPanel {
 struct SpeedStudyOptions {
   bool quick = false;      // three panels, one light, fewer parameters
   std::string measured{};  // an RGL .bsdf file added as a panel when not empty
+  // The real-scene panel: captures at this many points sampled on this OBJ scene (none when
+  // empty), looked up 30 degrees from their normals; rows average over the points.
+  std::string scene{};
+  int scene_points = 24;
 };
 
 // Lambert 0.8; Lambert 0.5 + Phong 10, 100, 1000 (ks 0.4); GGX 0.5, 0.1, 0.02 (kd 0.1, f0 0.9);
@@ -38,10 +42,10 @@ Frame speed_study_record(const Environment& environment);
 // of the sky but not the sun.
 TriangleMesh occluding_wall(const Vec3& sun);
 
-// One case per panel, light (the sun; the sun and the wall, unless quick) and outgoing
-// direction (the sun's mirror image; 0.5 rad from the normal, unless quick): the BRDF slice and
-// the capture at 256^2 (128^2 quick), and the truth integrated over the map's pixels. Prepared
-// in parallel; progress per case.
+// One case per panel, light (the sun; the sun and the wall, unless quick; every point of the
+// real-scene panel) and outgoing direction (the sun's mirror image; 0.5 rad from the normal,
+// unless quick): the BRDF slice and the capture at 256^2 (128^2 quick), and the truth integrated
+// over the map's pixels, occluded as the capture is. Prepared in parallel; progress per case.
 std::vector<ComparisonCase> speed_study_cases(const Environment& environment,
                                               const std::vector<SpeedStudyPanel>& panels,
                                               const SpeedStudyOptions& options,
