@@ -2,6 +2,8 @@
 
 add_library(basis_options INTERFACE)
 target_compile_options(basis_options INTERFACE -Wall -Wextra -Wpedantic)
+# No code reads errno after a maths function; without it sqrt and friends inline and vectorise.
+target_compile_options(basis_options INTERFACE -fno-math-errno)
 if(BASIS_NATIVE_ARCH)
   target_compile_options(basis_options INTERFACE -march=native)
 endif()

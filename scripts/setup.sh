@@ -14,7 +14,7 @@ packages=(
   nlohmann-json3-dev libtinyobjloader-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   python3-matplotlib
-  blender-data
+  blender-data glmark2-data
 )
 
 missing=()

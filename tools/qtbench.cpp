@@ -38,7 +38,8 @@ int main(int argc, char** argv) {
       "The speed-versus-accuracy chart: BRDF slices (Lambert, Phong 10/100/1000, GGX "
       "0.5/0.1/0.02) against captures of a real HDR map with a sun (with and without an "
       "occluder, and at points of a real scene, averaged over them), in packed quadtrees "
-      "(several resolutions and tolerances, full and accuracy-targeted descents), dense grids (8^2 to "
+      "(several resolutions and tolerances, full and accuracy-targeted descents), dense grids (8^2 "
+      "to "
       "256^2, naive and vectorised), real spherical harmonics (orders 2 to 16) and Haar "
       "wavelets (16 to 1024 kept coefficients). Ground truth: the integral of the exact BRDF "
       "over the map's pixels, occlusion traced per pixel. Writes DIR/results.csv "
@@ -61,7 +62,7 @@ int main(int argc, char** argv) {
                  "OBJ scene of the real-scene panel: captures at points sampled on it, errors and "
                  "times averaged over them (default: data/scene.obj, the main job's)");
   app.add_option("--scene-points", scene_points,
-                 "points of the real-scene panel (default 24, 6 with --quick; 0 leaves it out)")
+                 "points of the real-scene panel (default 8, 4 with --quick; 0 leaves it out)")
       ->check(CLI::Range(0, 10000));
   app.add_option("--threads", threads, "worker threads for the preparation (timings run on one)")
       ->check(CLI::Range(1, 1024));
@@ -73,7 +74,7 @@ int main(int argc, char** argv) {
     const basis::Environment env(basis::read_image(map), 0, map);
     std::filesystem::create_directories(out_dir);
     basis::SpeedStudyOptions options{.quick = quick, .measured = measured, .scene = scene};
-    options.scene_points = app.count("--scene-points") ? scene_points : quick ? 6 : 24;
+    options.scene_points = app.count("--scene-points") ? scene_points : quick ? 4 : 8;
     if (options.measured.empty())
       for (const auto& folder : {std::string("../shared/data/rgl-bsdf"),
                                  std::string(BASIS_SOURCE_DIR) + "/../shared/data/rgl-bsdf"})

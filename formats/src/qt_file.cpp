@@ -516,10 +516,9 @@ std::vector<std::byte> finish(flatbuffers::FlatBufferBuilder& b, fb::Kind kind,
                               flatbuffers::Offset<fb::TreeSet> trees,
                               flatbuffers::Offset<fb::BrdfTable> table,
                               flatbuffers::Offset<fb::CaptureSet> captures,
-                              flatbuffers::Offset<fb::Provenance> provenance,
-                              std::uint32_t version = kQtFormatVersion) {
-  const auto root = fb::CreateFile(b, version, kind, fb::Mapping::CosineConcentric, trees, table,
-                                   captures, provenance);
+                              flatbuffers::Offset<fb::Provenance> provenance) {
+  const auto root = fb::CreateFile(b, kQtFormatVersion, kind, fb::Mapping::CosineConcentric, trees,
+                                   table, captures, provenance);
   fb::FinishFileBuffer(b, root);
   const auto* data = reinterpret_cast<const std::byte*>(b.GetBufferPointer());
   std::vector<std::byte> bytes(data, data + b.GetSize());

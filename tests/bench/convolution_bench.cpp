@@ -1,11 +1,13 @@
 // Convolution and projection kernels, quadtree against dense textures, on the same functions in
-// one run. Names: convolve/<method>/<brdf>/<res>, project/quadtree/<res>.
+// one run: float trees (projection's output) and packed trees (what files hold). Names:
+// convolve/<method>/<brdf>/<res>, project/<method>/<res>.
 #include <benchmark/benchmark.h>
 
 #include <memory>
 
 #include "basis/core/convolution.h"
 #include "basis/core/dense.h"
+#include "basis/core/packed_tree.h"
 #include "basis/core/projection.h"
 #include "bench_scenes.h"
 
@@ -15,6 +17,7 @@ namespace {
 struct Pair {
   Grid brdf, light;
   Quadtree brdf_tree, light_tree;
+  PackedTree brdf_packed, light_packed;
 };
 
 std::shared_ptr<const Pair> make_pair(const std::string& brdf_name, int n) {
@@ -23,6 +26,8 @@ std::shared_ptr<const Pair> make_pair(const std::string& brdf_name, int n) {
   p->light = sky_grid(n);
   p->brdf_tree = project(p->brdf, {.tolerance = 0.05});
   p->light_tree = project(p->light, {.tolerance = 0.05});
+  p->brdf_packed = pack(p->brdf_tree);
+  p->light_packed = pack(p->light_tree);
   return p;
 }
 
@@ -46,6 +51,12 @@ void register_all() {
           ("convolve/quadtree_bound" + suffix).c_str(), [p](benchmark::State& state) {
             for (auto _ : state)
               benchmark::DoNotOptimize(convolve(p->brdf_tree.view(), p->light_tree.view()));
+            add_counters(state, *p);
+          });
+      benchmark::RegisterBenchmark(
+          ("convolve/packed_bound" + suffix).c_str(), [p](benchmark::State& state) {
+            for (auto _ : state)
+              benchmark::DoNotOptimize(convolve(p->brdf_packed.view(), p->light_packed.view()));
             add_counters(state, *p);
           });
       benchmark::RegisterBenchmark(
@@ -76,6 +87,17 @@ void register_all() {
             state.counters["nodes"] = tree.node_count();
           });
     }
+    // Projection followed by packing, as the tools write trees.
+    benchmark::RegisterBenchmark(("project/packed/" + std::to_string(n)).c_str(),
+                                 [light](benchmark::State& state) {
+                                   QuadtreeProjector projector;
+                                   Quadtree tree;
+                                   for (auto _ : state) {
+                                     projector.project(*light, {.tolerance = 0.05}, tree);
+                                     benchmark::DoNotOptimize(pack(tree).words.data());
+                                   }
+                                   state.counters["nodes"] = tree.node_count();
+                                 });
   }
 }
 

@@ -1,6 +1,7 @@
 #include "basis/core/packed_tree.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstring>
 
@@ -37,21 +38,27 @@ PackedTree pack(const Quadtree& tree, BoundKind bounds) {
           largest = std::max(largest, double(std::abs(source.value(n, g, c, q))));
   out.scales.value_scale = largest > 0 ? std::ldexp(1.0f, std::ilogb(largest) - 14) : 1.0f;
   const double value_scale = out.scales.value_scale;
-  auto packed_value = [&](float v) {
-    const std::uint16_t h = float_to_half(float(double(v) / value_scale));
-    return std::pair{h, double(half_to_float(h)) * value_scale};
-  };
-  // Bounds for the packed values: the source's plus how far each value moved.
+  // Every value's half, once; bounds for the packed values: the source's plus how far each
+  // value moved.
+  const std::size_t values_per_node = std::size_t(s.groups) * s.channels * 4;
+  std::vector<std::uint16_t> halves(std::size_t(count) * values_per_node);
   std::vector<double> moved_bounds(std::size_t(count) * s.channels * 4);
   double largest_bound = 0;
-  for (int n = 0; n < count; ++n)
-    for (int c = 0; c < s.channels; ++c)
-      for (int q = 0; q < 4; ++q) {
-        const float v = source.value(n, 0, c, q);
-        const double b = source_bound(n, c, q) + std::abs(packed_value(v).second - double(v));
-        moved_bounds[(std::size_t(n) * s.channels + c) * 4 + q] = b;
-        largest_bound = std::max(largest_bound, b);
-      }
+  for (int n = 0; n < count; ++n) {
+    std::uint16_t* h = halves.data() + std::size_t(n) * values_per_node;
+    for (int g = 0; g < s.groups; ++g)
+      for (int c = 0; c < s.channels; ++c)
+        for (int q = 0; q < 4; ++q) {
+          const float v = source.value(n, g, c, q);
+          const std::uint16_t half = float_to_half(float(double(v) / value_scale));
+          h[(g * s.channels + c) * 4 + q] = half;
+          if (g != 0) continue;
+          const double moved = std::abs(double(half_to_float(half)) * value_scale - double(v));
+          const double b = source_bound(n, c, q) + moved;
+          moved_bounds[(std::size_t(n) * s.channels + c) * 4 + q] = b;
+          largest_bound = std::max(largest_bound, b);
+        }
+  }
   float bound_scale = float(largest_bound);
   if (double(bound_scale) < largest_bound) bound_scale = std::nextafter(bound_scale, INFINITY);
   out.scales.bound_scale = bound_scale > 0 ? bound_scale : 1.0f;
@@ -59,10 +66,16 @@ PackedTree pack(const Quadtree& tree, BoundKind bounds) {
   std::array<float, 256> decoded;
   for (int code = 0; code < 256; ++code)
     decoded[code] = bound_code_value(std::uint8_t(code)) * out.scales.bound_scale;
+  // The smallest code whose value reaches b (255 when none does): estimated from b's float
+  // bits, then settled against the decoded values.
   auto code_for = [&](double b) {
-    const auto it = std::lower_bound(decoded.begin(), decoded.end(), b,
-                                     [](float d, double x) { return double(d) < x; });
-    return std::uint8_t(it == decoded.end() ? 255 : it - decoded.begin());
+    const auto bits = std::bit_cast<std::uint32_t>(float(b / out.scales.bound_scale));
+    int code = bits <= kBoundCodeBias ? 0 : int(std::min((bits - kBoundCodeBias) >> 20, 255u));
+    while (code < 255 && double(decoded[code]) < b)
+      ++code;
+    while (code > 0 && double(decoded[code - 1]) >= b)
+      --code;
+    return std::uint8_t(code);
   };
 
   // Breadth-first order: node i's children get the next indices, in quadrant order.
@@ -80,11 +93,8 @@ PackedTree pack(const Quadtree& tree, BoundKind bounds) {
         order.push_back(child);
       }
     w[0] = mask ? first << 4 | mask : 0;
-    auto* halves = reinterpret_cast<std::uint16_t*>(w + 1);
-    for (int g = 0; g < s.groups; ++g)
-      for (int c = 0; c < s.channels; ++c)
-        for (int q = 0; q < 4; ++q)
-          halves[(g * s.channels + c) * 4 + q] = packed_value(source.value(n, g, c, q)).first;
+    std::memcpy(w + 1, halves.data() + std::size_t(n) * values_per_node,
+                values_per_node * sizeof(std::uint16_t));
     auto* codes = reinterpret_cast<std::uint8_t*>(w + 1 + 2 * s.groups * s.channels);
     for (int c = 0; c < s.channels; ++c)
       for (int q = 0; q < 4; ++q)

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <stdexcept>
 #include <string>
@@ -218,40 +219,51 @@ void QuadtreeProjector::build_deviations(const Grid& grid) {
   }
   // Bottom-up in double, per channel: each cell's mean and sum of squared deviations of its
   // texels (Chan et al.'s pairwise update, free of cancellation), then the RMS deviation from
-  // the cell's stored float average, rounded up.
+  // the cell's stored float average, rounded up. Levels alternate between two pairs of arrays
+  // so that the loop over a row has no aliasing and vectorises.
   for (int c = 0; c < channels_; ++c) {
-    std::vector<double>& mean = moments_[0];
-    std::vector<double>& squares = moments_[1];
     const std::span<const float> texels = grid.plane(0, c);
-    mean.assign(texels.begin(), texels.end());
-    squares.assign(texels.size(), 0.0);
+    moments_[0].assign(texels.begin(), texels.end());
+    moments_[1].assign(texels.size(), 0.0);
+    moments_[2].resize(texels.size() / 4);
+    moments_[3].resize(texels.size() / 4);
+    int from = 0;
     double texels_per_child = 1;
     for (int k = levels_; k >= 1; --k) {
       const int fine = 1 << k, coarse = fine / 2;
+      const double* fine_mean = moments_[from].data();
+      const double* fine_squares = moments_[from + 1].data();
+      double* coarse_mean = moments_[2 - from].data();
+      double* coarse_squares = moments_[3 - from].data();
       const float* stored = values(grid, k - 1, c);
       float* deviation = deviations(k - 1, c);
-      for (int y = 0; y < coarse; ++y)
+      const double inverse_texels = 1 / (4 * texels_per_child);
+      for (int y = 0; y < coarse; ++y) {
+        const double* m0 = fine_mean + std::size_t(2 * y) * fine;
+        const double* m1 = m0 + fine;
+        const double* s0 = fine_squares + std::size_t(2 * y) * fine;
+        const double* s1 = s0 + fine;
+        const std::size_t row = std::size_t(y) * coarse;
         for (int x = 0; x < coarse; ++x) {
-          const std::size_t i[4] = {
-              std::size_t(2 * y) * fine + 2 * x, std::size_t(2 * y) * fine + 2 * x + 1,
-              std::size_t(2 * y + 1) * fine + 2 * x, std::size_t(2 * y + 1) * fine + 2 * x + 1};
-          const double m = (mean[i[0]] + mean[i[1]] + mean[i[2]] + mean[i[3]]) / 4;
-          double m2 = 0;
-          for (const std::size_t j : i)
-            m2 += squares[j] + texels_per_child * (mean[j] - m) * (mean[j] - m);
-          const std::size_t o = std::size_t(y) * coarse + x;
-          // Written in place: cell o of the coarse level precedes cells i of the fine one.
-          mean[o] = m;
-          squares[o] = m2;
-          const double offset_from_stored = m - double(stored[o]);
+          const double a = m0[2 * x], b = m0[2 * x + 1], d = m1[2 * x], e = m1[2 * x + 1];
+          const double m = (a + b + d + e) / 4;
+          const double m2 = s0[2 * x] + s0[2 * x + 1] + s1[2 * x] + s1[2 * x + 1] +
+                            texels_per_child * ((a - m) * (a - m) + (b - m) * (b - m) +
+                                                (d - m) * (d - m) + (e - m) * (e - m));
+          coarse_mean[row + x] = m;
+          coarse_squares[row + x] = m2;
+          const double offset_from_stored = m - double(stored[row + x]);
           const double rms =
-              std::sqrt(m2 / (4 * texels_per_child) + offset_from_stored * offset_from_stored);
-          // A margin far above double rounding, then the next float up.
+              std::sqrt(m2 * inverse_texels + offset_from_stored * offset_from_stored);
+          // A margin far above double rounding, then the next float up (safe is not negative,
+          // so the next float is one more in the bits).
           const double safe = rms + 1e-12 * (std::abs(m) + rms);
-          float f = float(safe);
-          if (double(f) < safe) f = std::nextafter(f, INFINITY);
-          deviation[o] = f;
+          const float nearest = float(safe);
+          const float above = std::bit_cast<float>(std::bit_cast<std::uint32_t>(nearest) + 1);
+          deviation[row + x] = double(nearest) < safe ? above : nearest;
         }
+      }
+      from = 2 - from;
       texels_per_child *= 4;
     }
   }

@@ -44,8 +44,7 @@ void descend_scalar(const A& a, const B& b, int na, int nb, double area, int cha
           stop = false;
     }
     if (!stop) {
-      descend_scalar(a, b, child_a, child_b, area / 4, channels, groups, target, pair_bound,
-                     sums);
+      descend_scalar(a, b, child_a, child_b, area / 4, channels, groups, target, pair_bound, sums);
       continue;
     }
     for (int c = 0; c < channels; ++c) {

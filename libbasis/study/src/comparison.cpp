@@ -72,13 +72,14 @@ std::vector<ComparisonRow> compare_methods(const ComparisonCase& c, const Compar
           t);
       // Full descents, then accuracy-targeted ones.
       std::vector<double> accuracies = {0};
-      accuracies.insert(accuracies.end(), o.quadtree_accuracies.begin(),
-                        o.quadtree_accuracies.end());
+      if (tolerance == o.quadtree_targeted_tolerance)
+        accuracies.insert(accuracies.end(), o.quadtree_accuracies.begin(),
+                          o.quadtree_accuracies.end());
       for (const double accuracy : accuracies) {
         ComparisonRow r =
-            accuracy == 0 ? row("quadtree", format("%g@%g", n, tolerance))
-                          : row("quadtree_targeted",
-                                format("%g@%g", n, tolerance) + format("~%g", accuracy));
+            accuracy == 0
+                ? row("quadtree", format("%g@%g", n, tolerance))
+                : row("quadtree_targeted", format("%g@%g", n, tolerance) + format("~%g", accuracy));
         r.bytes = double(b.words.size() * sizeof(std::uint32_t) + sizeof(TreeExtent));
         r.project_ns = project_ns;
         const ConvolutionOptions options{.accuracy = accuracy};

@@ -87,8 +87,11 @@ std::vector<ComparisonCase> speed_study_cases(const Environment& environment,
     const TriangleMesh mesh = read_obj(options.scene);
     scene = std::make_unique<EmbreeScene>(mesh);
     for (const SurfacePoint& p : sample_surface(mesh, std::size_t(options.scene_points), 7))
-      lights.push_back({"scene", scene.get(), p.position + p.normal * (1e-4 * mesh.extent()),
-                        Frame::from_normal(p.normal), {}});
+      lights.push_back({"scene",
+                        scene.get(),
+                        p.position + p.normal * (1e-4 * mesh.extent()),
+                        Frame::from_normal(p.normal),
+                        {}});
   }
   for (Light& l : lights)
     l.grid = capture(environment, l.scene, l.position, l.frame, {.resolution = finest, .strata = 2})

@@ -85,7 +85,7 @@ class QuadtreeProjector {
   std::vector<float*> extreme_planes_;
   std::vector<float> deviation_storage_;
   std::vector<float*> deviation_planes_;
-  std::vector<double> moments_[2];  // mean and sum of squared deviations of one level, per cell
+  std::vector<double> moments_[4];  // means and sums of squared deviations of two levels
   std::vector<PendingCell> pending_;
 };
 

@@ -26,7 +26,7 @@ struct SpeedStudyOptions {
   // The real-scene panel: captures at this many points sampled on this OBJ scene (none when
   // empty), looked up 30 degrees from their normals; rows average over the points.
   std::string scene{};
-  int scene_points = 24;
+  int scene_points = 8;
 };
 
 // Lambert 0.8; Lambert 0.5 + Phong 10, 100, 1000 (ks 0.4); GGX 0.5, 0.1, 0.02 (kd 0.1, f0 0.9);
