@@ -26,15 +26,16 @@ int main(int argc, char** argv) {
       "brdf2qt");
   std::string spec_path, output, bounds = "l2";
   int wo_res = 0, wi_res = 0, threads = 0;
-  double tolerance = -1;
-  bool absolute = false, quiet = false, no_tilt = false, json = false;
+  double tolerance = -1, tolerance_floor = 0.2;
+  bool absolute = false, quiet = false, no_tilt = false, no_wo_derivatives = false, json = false;
   app.add_option("spec", spec_path, "the BRDF spec (JSON)")->required();
   app.add_option("-o,--output", output,
                  "output .qt file (default: the spec's name with .qt); a .qt file holds at most "
                  "2 GiB, tabulation stops with an error beyond");
   app.add_option("--wo-res", wo_res,
-                 "entries per side of the parabolic grid over wo (default 33: bilinear "
-                 "interpolation between entries errs by up to 1.8 % at 16, 0.4 % at 33)")
+                 "entries per side of the parabolic grid over wo (default: from the width of "
+                 "the BRDF's lobe, 33 for Phong 40 and wider, 57 for Phong 100, 73 for Phong "
+                 "200, up to 129; see README)")
       ->check(CLI::Range(2, 256));
   app.add_option(
       "--wi-res", wi_res,
@@ -43,8 +44,13 @@ int main(int argc, char** argv) {
       "two resolutions limits what a sharp lobe resolves: glossy reflections of a low sun erred "
       "by up to 1.3 % with 64 and 3.3 % with 32 (see README)");
   app.add_option("--tolerance", tolerance,
-                 "refine while a quadrant's error bound exceeds this fraction of the entry's "
-                 "mean (default 0.05)")
+                 "refine while a quadrant's error bound exceeds this fraction of its own value, "
+                 "or of --tolerance-floor times the entry's mean where that is larger (default "
+                 "0.05)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--tolerance-floor", tolerance_floor,
+                 "the floor of the locally relative tolerance, a fraction of the entry's mean "
+                 "(default 0.2; 0 makes --tolerance relative to the entry's mean everywhere)")
       ->check(CLI::NonNegativeNumber);
   app.add_flag("--absolute", absolute, "read --tolerance as an absolute value (1/sr)");
   app.add_option("--bounds", bounds,
@@ -52,7 +58,11 @@ int main(int argc, char** argv) {
                  "for the tightest certified lookups; or linf, its largest deviation from every "
                  "texel")
       ->check(CLI::IsMember({"l2", "linf"}));
-  app.add_flag("--no-tilt", no_tilt, "store f only, without the tilt derivatives");
+  app.add_flag("--no-tilt", no_tilt, "leave out the tilt derivatives (rotation compensation)");
+  app.add_flag("--no-wo-derivatives", no_wo_derivatives,
+               "leave out each entry's derivatives over wo: smaller tables, but lookups between "
+               "entries interpolate bilinearly and blend the neighbours' lobes (errors of tens "
+               "of percent for sharp lobes under high-contrast light, see README)");
   app.add_option("--threads", threads, "worker threads (default: all cores)")
       ->check(CLI::Range(1, 1024));
   app.add_flag("--json", json, "print the summary as JSON");
@@ -62,14 +72,17 @@ int main(int argc, char** argv) {
   return basis::cli::run(app, argc, argv, [&] {
     const basis::BrdfSpec spec = basis::read_brdf_spec(spec_path);
     basis::BrdfTableOptions options;
-    options.wo_resolution = wo_res ? wo_res : spec.wo_resolution.value_or(options.wo_resolution);
+    options.wo_resolution =
+        wo_res ? wo_res : spec.wo_resolution.value_or(basis::default_wo_resolution(spec.brdf));
     options.wi_resolution = wi_res ? wi_res : spec.wi_resolution.value_or(options.wi_resolution);
     if (!basis::is_valid_resolution(options.wi_resolution))
       throw basis::cli::UsageError("--wi-res must be a power of two from 2 to 512, got " +
                                    std::to_string(options.wi_resolution));
     options.projection.tolerance = tolerance >= 0 ? tolerance : spec.tolerance.value_or(0.05);
+    options.projection.local_floor = tolerance_floor;
     if (absolute) options.projection.mode = basis::ProjectionOptions::Mode::absolute;
     options.tilt_derivatives = !no_tilt;
+    options.wo_derivatives = !no_wo_derivatives;
     options.bounds = bounds == "linf" ? basis::BoundKind::linf : basis::BoundKind::l2;
     if (output.empty())
       output = std::filesystem::path(spec_path).replace_extension(".qt").filename().string();
@@ -86,6 +99,8 @@ int main(int argc, char** argv) {
     const nlohmann::ordered_json parameters = {{"wo_res", options.wo_resolution},
                                                {"wi_res", options.wi_resolution},
                                                {"tolerance", options.projection.tolerance},
+                                               {"tolerance_floor", tolerance_floor},
+                                               {"wo_derivatives", options.wo_derivatives},
                                                {"mode", absolute ? "absolute" : "relative"},
                                                {"tilt_derivatives", options.tilt_derivatives},
                                                {"bounds", bounds}};

@@ -122,8 +122,8 @@ int main(int argc, char** argv) {
       "  TREE x TREE: the hemisphere integral of A B cos (pi times their product's integral "
       "over the cosine-weighted map).\n"
       "  TABLE x CAPTURES (either order): the reflected radiance Lo(wo) at every capture point, "
-      "four table entries around wo convolved and interpolated bilinearly; TABLE x TREE: the "
-      "same for one capture image.\n"
+      "the four table entries around wo convolved and interpolated (--interpolation); TABLE x "
+      "TREE: the same for one capture image.\n"
       "  CAPTURES x CAPTURES: the integral of their product at every point (the sets must hold "
       "the same points).\n"
       "Values are RGB (a grey file counts for all three); each comes with a bound on its "
@@ -135,7 +135,7 @@ int main(int argc, char** argv) {
       "texel it falls in.",
       "qtconvolve");
   std::string a_path, b_path, wo_text = "0,0,1", normal_text, tilt_mode = "compensated", png,
-                              lights_from = "brdf";
+                              lights_from = "brdf", interpolation = "hermite";
   bool json = false, csv = false, reference = false, time = false, quiet = false, dense = false;
   double accuracy = 0;
   int threads = 0;
@@ -159,6 +159,11 @@ int main(int argc, char** argv) {
                  "missing), or table, the table's texel where the light falls (less accurate "
                  "near the horizon, see README)")
       ->check(CLI::IsMember({"brdf", "table"}));
+  app.add_option("--interpolation", interpolation,
+                 "between table entries: hermite (default; from the entries' derivatives over "
+                 "wo, which brdf2qt tabulates, so that a lobe moves with wo instead of blending "
+                 "the four neighbours; bilinear for tables without them) or bilinear")
+      ->check(CLI::IsMember({"hermite", "bilinear"}));
   app.add_flag("--json", json, "print {\"results\": [{\"index\", \"value\", \"bound\"}, ...]}");
   app.add_flag("--csv", csv, "print CSV: index,r,g,b,bound_r,bound_g,bound_b[,reference...]");
   app.add_flag("--reference", reference,
@@ -193,6 +198,8 @@ int main(int argc, char** argv) {
     if (shading.wo.z() < 0) throw UsageError("--wo is below the horizon (z < 0)");
     shading.wo.normalize();
     shading.convolution.accuracy = accuracy;
+    shading.interpolation = interpolation == "bilinear" ? basis::WoInterpolation::bilinear
+                                                        : basis::WoInterpolation::hermite;
     if (!normal_text.empty()) {
       const basis::Vec3 normal = basis::cli::parse_triple(normal_text, "--normal");
       if (!(normal.norm() > 1e-12)) throw UsageError("--normal must not be zero");
@@ -234,7 +241,8 @@ int main(int argc, char** argv) {
       basis::cli::ProgressBar progress("qtconvolve --reference", quiet);
       const std::vector<basis::Rgb> references = arena->execute([&] {
         return basis::reference_lookups(*table, convolution.shaded(), shading.wo,
-                                        convolution.light_brdf(), progress.control());
+                                        convolution.light_brdf(), shading.interpolation,
+                                        progress.control());
       });
       progress.finish();
       for (std::size_t k = 0; k < rows.size(); ++k)

@@ -62,7 +62,7 @@ FileConvolution::FileConvolution(const QtFile& a, const QtFile& b, const Shading
     if (shading_.normal)
       throw std::invalid_argument("dense evaluation takes untilted lookups only (no --normal)");
     if (table_) {
-      dense_table_ = dense_lookup(table_->brdf_table(), shading_.wo);
+      dense_table_ = dense_lookup(table_->brdf_table(), shading_.wo, shading_.interpolation);
       dense_b_ = dense_grids(as_captures(*other_), false);
     } else {
       dense_a_ = dense_grids(as_captures(a), true);
@@ -90,7 +90,8 @@ Convolution FileConvolution::operator()(std::size_t k) const {
   if (table_) {
     if (other_->kind() == QtKind::capture_set)
       return shade(table_->brdf_table(), other_->captures(), k, shading_);
-    return reflect(table_->brdf_table(), other_->tree(), shading_.wo);
+    return reflect(table_->brdf_table(), other_->tree(), shading_.wo,
+                   {shading_.convolution, shading_.interpolation});
   }
   return capture_product(as_captures(a_), as_captures(b_), k);
 }
@@ -100,8 +101,8 @@ int FileConvolution::convolutions_per_result() const {
   if (shading_.normal) return shading_.tilt_mode == TiltCompensation::compensated ? 8 : 4;
   // Untilted: the entries around wo with a weight (lookups skip the others).
   int taps = 0;
-  for (const TableTap& tap : table_taps(table_->brdf_table().wo_resolution, shading_.wo))
-    taps += tap.weight != 0;
+  for (const TableTap& tap : lookup_taps(table_->brdf_table(), shading_.wo, shading_.interpolation))
+    taps += tap.reads_anything();
   return taps;
 }
 

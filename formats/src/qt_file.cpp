@@ -245,7 +245,12 @@ void QtFile::verify() {
     if (trees_.size() != std::size_t(wo_resolution_) * wo_resolution_)
       fail(name_, "BRDF table of " + std::to_string(wo_resolution_) + "^2 entries holds " +
                       std::to_string(trees_.size()) + " trees");
-    if (trees_.shape().groups != 1) fail(name_, "BRDF table entries hold more than one group");
+    // One group (f), or three with bounds for all (f and its derivatives over wo).
+    if (trees_.shape().groups == 2 ||
+        (trees_.shape().groups == 3 && trees_.shape().bounded_groups != 3))
+      fail(name_, "BRDF table entries hold " + std::to_string(trees_.shape().groups) +
+                      " groups with bounds for " + std::to_string(trees_.shape().bounded_groups) +
+                      " (1, or 3 with bounds for all, expected)");
     if (table->tilt()) {
       tilt_ = verify_tree_set(table->tilt(), "tilt trees", nullptr);
       if (tilt_.size() != trees_.size() || tilt_.shape().groups != 2 ||
@@ -325,6 +330,9 @@ TreeSetView QtFile::verify_tree_set(const void* set_pointer, const std::string& 
   p.mode = set->tolerance_mode() == fb::ToleranceMode::Relative ? ProjectionOptions::Mode::relative
                                                                 : ProjectionOptions::Mode::absolute;
   p.max_depth = set->max_depth();
+  p.local_floor = set->tolerance_floor();
+  if (!std::isfinite(p.local_floor) || p.local_floor < 0)
+    fail(name_, what + ": tolerance floor is not a finite number >= 0");
   if (p.max_depth < 0 || p.max_depth > levels)
     fail(name_, what + ": max depth " + std::to_string(p.max_depth) + " outside 0.." +
                     std::to_string(levels));
@@ -338,8 +346,13 @@ TreeSetView QtFile::verify_packed_trees(const void* set_pointer, const std::stri
   const auto* set = static_cast<const fb::TreeSet*>(set_pointer);
   if (set->bounds() != fb::BoundKind::L2 && set->bounds() != fb::BoundKind::Linf)
     fail(name_, what + ": unknown bound kind " + std::to_string(int(set->bounds())));
+  const int bounded_groups = set->bounded_groups();
+  if (bounded_groups < 1 || bounded_groups > s.groups)
+    fail(name_, what + ": bounds for " + std::to_string(bounded_groups) + " of " +
+                    std::to_string(s.groups) + " channel groups");
   const PackedShape shape{s.resolution, s.channels, s.groups,
-                          set->bounds() == fb::BoundKind::L2 ? BoundKind::l2 : BoundKind::linf};
+                          set->bounds() == fb::BoundKind::L2 ? BoundKind::l2 : BoundKind::linf,
+                          bounded_groups};
   const auto extents = as_span<TreeExtent>(set->packed_extents(), name_, "tree extents");
   std::span<const std::uint32_t> words;
   if (set->words()) words = {set->words()->data(), set->words()->size()};
@@ -497,7 +510,9 @@ flatbuffers::Offset<fb::TreeSet> build_tree_set(flatbuffers::FlatBufferBuilder& 
                              ? fb::ToleranceMode::Relative
                              : fb::ToleranceMode::Absolute);
   set.add_max_depth(projection.max_depth);
+  set.add_tolerance_floor(projection.local_floor);
   set.add_bounds(s.bounds == BoundKind::l2 ? fb::BoundKind::L2 : fb::BoundKind::Linf);
+  set.add_bounded_groups(s.bounded_groups);
   set.add_packed_extents(extents);
   set.add_words(words);
   return set.Finish();

@@ -30,7 +30,8 @@ ordered_json summarise(const QtFile& file) {
   const ProjectionOptions p = file.projection();
   j["tolerance"] = {{"value", p.tolerance},
                     {"mode", p.mode == ProjectionOptions::Mode::relative ? "relative" : "absolute"},
-                    {"max_depth", p.max_depth}};
+                    {"max_depth", p.max_depth},
+                    {"floor", p.local_floor}};
 
   std::size_t total = 0, smallest = SIZE_MAX, largest = 0;
   std::vector<long long> histogram;
@@ -126,14 +127,19 @@ std::string summary_text(const QtFile& file) {
   out << "trees        " << j["trees"].get<std::size_t>() << " over " << n << " x " << n
       << " texels of the cosine-weighted concentric map, " << channels
       << (channels == 1 ? " channel" : " channels");
-  if (groups == 3)
-    out << ", 3 groups (value, d/dtilt_x, d/dtilt_y)";
+  if (groups == 3 && j.contains("brdf_table"))
+    out << ", 3 groups (f, and its derivatives over wo along s and t per grid step)";
+  else if (groups == 3)
+    out << ", 3 groups";
   else if (groups > 1)
     out << ", " << groups << " groups";
   out << "\n";
   const auto& tol = j["tolerance"];
   out << "tolerance    ";
-  if (tol["mode"] == "relative")
+  if (tol["mode"] == "relative" && tol["floor"].get<double>() > 0)
+    out << tol["value"].get<double>() * 100 << " % of each quadrant's value, at least of "
+        << tol["floor"].get<double>() << " x each channel's mean";
+  else if (tol["mode"] == "relative")
     out << tol["value"].get<double>() * 100 << " % of each channel's mean";
   else
     out << tol["value"].get<double>() << " (absolute)";

@@ -6,18 +6,36 @@
 
 namespace basis {
 
+std::array<TableTap, 4> lookup_taps(const BrdfTableView& table, const Vec3& wo,
+                                    WoInterpolation interpolation) {
+  return table_taps(table.wo_resolution, wo,
+                    table.has_wo_derivatives() ? interpolation : WoInterpolation::bilinear);
+}
+
 namespace {
 
+// One entry's part of a lookup: its groups weighted in one descent (only group 0 when the
+// derivatives' weights are zero).
+Convolution convolve_tap(const BrdfTableView& table, const TableTap& tap,
+                         const PackedTreeView& radiance, const ConvolutionOptions& options) {
+  const PackedTreeView entry = table.entry(tap.i, tap.j);
+  if (!tap.reads_derivatives() && tap.weights[0] == 1) return convolve(entry, radiance, options);
+  const std::array<float, 3> weights = {float(tap.weights[0]), float(tap.weights[1]),
+                                        float(tap.weights[2])};
+  const std::size_t groups = tap.reads_derivatives() ? 3 : 1;
+  return convolve_weighted(entry, std::span(weights.data(), groups), radiance, options);
+}
+
+// Sums entry(tap) over the taps that read anything, pi included.
 template <typename Entry>
-Convolution interpolate(const BrdfTableView& table, const Vec3& wo, Entry entry) {
-  // entry(i, j) gives the convolution of entry (i, j).
+Convolution interpolate(const std::array<TableTap, 4>& taps, Entry entry) {
   Convolution result;
-  for (const TableTap& tap : table_taps(table.wo_resolution, wo)) {
-    if (tap.weight == 0) continue;
-    const Convolution c = entry(tap.i, tap.j);
+  for (const TableTap& tap : taps) {
+    if (!tap.reads_anything()) continue;
+    const Convolution c = entry(tap);
     for (int ch = 0; ch < 3; ++ch) {
-      result.value[ch] += float(tap.weight * std::numbers::pi * c.value[ch]);
-      result.bound[ch] += float(tap.weight * std::numbers::pi * c.bound[ch]);
+      result.value[ch] += float(std::numbers::pi * c.value[ch]);
+      result.bound[ch] += float(std::numbers::pi * c.bound[ch]);
     }
   }
   return result;
@@ -26,28 +44,32 @@ Convolution interpolate(const BrdfTableView& table, const Vec3& wo, Entry entry)
 }  // namespace
 
 Convolution reflect(const BrdfTableView& table, const PackedTreeView& radiance, const Vec3& wo,
-                    const ConvolutionOptions& options) {
-  return interpolate(table, wo,
-                     [&](int i, int j) { return convolve(table.entry(i, j), radiance, options); });
+                    const LookupOptions& options) {
+  return interpolate(lookup_taps(table, wo, options.interpolation), [&](const TableTap& tap) {
+    return convolve_tap(table, tap, radiance, options.convolution);
+  });
 }
 
 Convolution reflect_tilted(const BrdfTableView& table, const PackedTreeView& radiance,
                            const Vec3& wo_shading, const Tilt& tilt, TiltCompensation mode,
-                           const ConvolutionOptions& options) {
+                           const LookupOptions& options) {
   if (mode == TiltCompensation::none) return reflect(table, radiance, wo_shading, options);
   // Re-parametrised: the entry whose lobe sits where the tilted surface's lobe sits.
   Vec3 wo = tilt_rotation(tilt).transpose() * wo_shading;
   wo.z() = std::max(0.0, wo.z());
-  if (mode == TiltCompensation::reparametrised) return reflect(table, radiance, wo, options);
+  Convolution result = reflect(table, radiance, wo, options);
+  if (mode == TiltCompensation::reparametrised) return result;
   if (!table.has_tilt())
     throw std::invalid_argument("the BRDF table holds no tilt derivatives to compensate with");
-  return interpolate(table, wo, [&](int i, int j) {
-    Convolution c = convolve(table.entry(i, j), radiance, options);
-    const GroupConvolution d = convolve_groups(table.tilt_entry(i, j), radiance);
+  // The first-order correction, from the tilt trees of the entries around wo, bilinearly.
+  for (const TableTap& tap : table_taps(table.wo_resolution, wo)) {
+    if (tap.weights[0] == 0) continue;
+    const GroupConvolution d = convolve_groups(table.tilt_entry(tap.i, tap.j), radiance);
     for (int ch = 0; ch < 3; ++ch)
-      c.value[ch] += float(tilt.x * d.value[0][ch] + tilt.y * d.value[1][ch]);
-    return c;
-  });
+      result.value[ch] += float(std::numbers::pi * tap.weights[0] *
+                                (tilt.x * d.value[0][ch] + tilt.y * d.value[1][ch]));
+  }
+  return result;
 }
 
 }  // namespace basis

@@ -79,7 +79,9 @@ class SseDescent {
         errors_a_(a.errors().data()),
         errors_b_(b.errors().data()),
         stride_a_(a.shape().stride()),
-        stride_b_(b.shape().stride()) {}
+        stride_b_(b.shape().stride()),
+        error_stride_a_(a.shape().error_stride()),
+        error_stride_b_(b.shape().error_stride()) {}
 
   // Integral over the cell of nodes (root_a, root_b), whose quadrants have area quadrant_area.
   Sums run(std::int32_t root_a, std::int32_t root_b, float quadrant_area, int depth = 0) const {
@@ -116,8 +118,8 @@ class SseDescent {
         }
         if constexpr (kBound) {
           const __m128 va = _mm_load_ps(qa[1 + (CA == 1 ? 0 : c)].lane);
-          const __m128 ea = _mm_load_ps(errors_a_[na * CA + (CA == 1 ? 0 : c)].lane);
-          const __m128 eb = _mm_load_ps(errors_b_[nb * CB + (CB == 1 ? 0 : c)].lane);
+          const __m128 ea = _mm_load_ps(errors_a_[na * error_stride_a_ + (CA == 1 ? 0 : c)].lane);
+          const __m128 eb = _mm_load_ps(errors_b_[nb * error_stride_b_ + (CB == 1 ? 0 : c)].lane);
           const __m128 term =
               _mm_min_ps(_mm_mul_ps(ea, eb),
                          _mm_min_ps(_mm_mul_ps(ea, abs_ps(vb)), _mm_mul_ps(eb, abs_ps(va))));
@@ -200,6 +202,7 @@ class SseDescent {
   const Quad* errors_a_;
   const Quad* errors_b_;
   std::size_t stride_a_, stride_b_;
+  std::size_t error_stride_a_, error_stride_b_;
 };
 
 template <int CA, int CB, int GA, bool kBound>

@@ -49,6 +49,26 @@ Grid downsample(const Grid& grid, int resolution) {
   return out;
 }
 
+Grid combine_groups(const Grid& grid, std::span<const double> weights) {
+  std::size_t used = weights.size();
+  while (used > 0 && weights[used - 1] == 0)
+    --used;
+  if (int(used) > grid.groups)
+    throw std::invalid_argument("weights for " + std::to_string(used) + " groups of a grid of " +
+                                std::to_string(grid.groups));
+  Grid out(grid.resolution, grid.channels, 1);
+  for (int c = 0; c < grid.channels; ++c) {
+    const std::span<float> to = out.plane(0, c);
+    for (std::size_t i = 0; i < to.size(); ++i) {
+      double v = 0;
+      for (std::size_t g = 0; g < used; ++g)
+        v += weights[g] * grid.plane(int(g), c)[i];
+      to[i] = float(v);
+    }
+  }
+  return out;
+}
+
 bool all_finite(std::span<const float> values) {
   // A float is Inf or NaN exactly when its magnitude bits exceed those of FLT_MAX; an unsigned
   // max-reduction vectorises.

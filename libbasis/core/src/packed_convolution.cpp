@@ -34,42 +34,97 @@ constexpr double kHalfRounding = 0x1p-11, kHalfSubnormalRounding = 0x1p-25;
 // values in those units lie below 2^15, so |a| 2^-25 <= 2^-10 and the areas add up to 1.
 constexpr double kRoundingPerMagnitude = 2 * kHalfRounding, kRoundingFloor = 0x1p-9;
 
+// Tree a as the scalar descent reads it: one group, or several combined with weights into one
+// function, whose value is sum_g w_g a_g, whose bounds are sum_g |w_g| times the groups' (the
+// RMS and the largest deviation are norms), and whose halves' rounding scales with
+// sum_g |w_g a_g| and the total weight.
+class WeightedTree {
+ public:
+  WeightedTree(const PackedTreeView& tree, std::span<const float> weights) : tree_(tree) {
+    count_ = weights.empty() ? 1 : int(weights.size());
+    for (int g = 0; g < count_; ++g) {
+      weight_[g] = weights.empty() ? 1.0 : double(weights[g]);
+      total_weight_ += std::abs(weight_[g]);
+    }
+  }
+  const PackedShape& shape() const { return tree_.shape(); }
+  std::int32_t child(int n, int q) const { return tree_.child(n, q); }
+  // Group 0 is the weighted combination; other groups (unweighted descents) are the tree's.
+  double value(int n, int g, int c, int q) const {
+    if (g > 0) return tree_.value(n, g, c, q);
+    double v = 0;
+    for (int k = 0; k < count_; ++k)
+      v += weight_[k] * tree_.value(n, k, c, q);
+    return v;
+  }
+  double bound(int n, int c, int q) const {
+    double b = 0;
+    for (int k = 0; k < count_; ++k)
+      b += std::abs(weight_[k]) * tree_.bound(n, k, c, q);
+    return b;
+  }
+  double magnitude(int n, int c, int q) const {
+    double m = 0;
+    for (int k = 0; k < count_; ++k)
+      m += std::abs(weight_[k] * tree_.value(n, k, c, q));
+    return m;
+  }
+  double total_weight() const { return total_weight_; }
+  // Whether groups are combined: the function may then be negative.
+  bool combined() const { return count_ > 1; }
+
+ private:
+  const PackedTreeView& tree_;
+  double weight_[3] = {1, 0, 0};
+  int count_ = 1;
+  double total_weight_ = 0;
+};
+
 // The bound of a stopped pair of packed quadrants with values a, b, which stand for true
 // averages a + da, b + db (|da|, |db| at most half an ulp):
 //   |integral of AB - area a b| <= area (|integral of (A - a)(B - b)| / area + |a| db + |b| da),
-// the first term at most min(sa sb, [a linf] ea (|b| + db) + |b| da, [b linf] likewise), the
+// the first term at most min(sa sb, [a linf] ea (|b| + db) + |b| da, [b linf] likewise; the
+// largest-deviation terms hold for B >= 0 and A >= 0 respectively), the
 // rounding terms kRoundingPerMagnitude |a b| here and kRoundingFloor (times the value scales)
-// once for the whole descent.
-auto packed_pair_bound(const PackedTreeView& a, const PackedTreeView& b) {
+// once for the whole descent. For weighted groups |a| is their magnitude (WeightedTree).
+auto packed_pair_bound(const WeightedTree& a, const PackedTreeView& b, double value_scale_a) {
   const bool linf_a = a.shape().bounds == BoundKind::linf;
   const bool linf_b = b.shape().bounds == BoundKind::linf;
-  return [&a, &b, linf_a, linf_b](int na, int nb, int ca, int cb, int q, double va, double vb) {
-    const double sa = a.bound(na, ca, q), sb = b.bound(nb, cb, q);
-    const double da =
-        kHalfRounding * std::abs(va) + kHalfSubnormalRounding * a.scales().value_scale;
-    const double db =
-        kHalfRounding * std::abs(vb) + kHalfSubnormalRounding * b.scales().value_scale;
-    double product = sa * sb;
-    if (linf_a) product = std::min(product, sa * (std::abs(vb) + db) + std::abs(vb) * da);
-    if (linf_b) product = std::min(product, sb * (std::abs(va) + da) + std::abs(va) * db);
-    return product + kRoundingPerMagnitude * std::abs(va * vb);
-  };
+  const double floor_a = kHalfSubnormalRounding * value_scale_a * a.total_weight();
+  return
+      [&a, &b, linf_a, linf_b, floor_a](int na, int nb, int ca, int cb, int q, double, double vb) {
+        const double sa = a.bound(na, ca, q), sb = b.bound(nb, cb, q);
+        const double abs_a = a.magnitude(na, ca, q);
+        const double da = kHalfRounding * abs_a + floor_a;
+        const double db =
+            kHalfRounding * std::abs(vb) + kHalfSubnormalRounding * b.scales().value_scale;
+        double product = sa * sb;
+        if (linf_a) product = std::min(product, sa * (std::abs(vb) + db) + std::abs(vb) * da);
+        // eb |a| bounds the integral of A (B - b) for A >= 0; a combination of groups may be
+        // negative, and then eb (|a| + sa) does (the mean of |A| is at most |a| plus A's RMS
+        // deviation from a).
+        if (linf_b)
+          product = std::min(product, sb * (abs_a + da + (a.combined() ? sa : 0)) + abs_a * db);
+        return product + kRoundingPerMagnitude * abs_a * std::abs(vb);
+      };
 }
 
 GroupConvolution scalar(const PackedTreeView& a, const PackedTreeView& b, int groups,
-                        double accuracy) {
+                        double accuracy, std::span<const float> weights = {}) {
   check_compatible(a.shape(), b.shape());
+  const WeightedTree weighted(a, weights);
   const int channels = std::max(a.shape().channels, b.shape().channels);
   detail::AccuracyTarget target{accuracy, {}};
   for (int c = 0; c < channels; ++c)
     for (int q = 0; q < 4; ++q)
-      target.estimate[c] += std::abs(double(a.value(0, 0, std::min(c, a.shape().channels - 1), q)) *
+      target.estimate[c] += std::abs(weighted.value(0, 0, std::min(c, a.shape().channels - 1), q) *
                                      b.value(0, 0, std::min(c, b.shape().channels - 1), q)) /
                             4;
   detail::ScalarSums sums;
-  detail::descend_scalar(a, b, 0, 0, 0.25, channels, groups, target, packed_pair_bound(a, b), sums);
-  const double floor =
-      kRoundingFloor * double(a.scales().value_scale) * double(b.scales().value_scale);
+  detail::descend_scalar(weighted, b, 0, 0, 0.25, channels, groups, target,
+                         packed_pair_bound(weighted, b, a.scales().value_scale), sums);
+  const double floor = kRoundingFloor * weighted.total_weight() * double(a.scales().value_scale) *
+                       double(b.scales().value_scale);
   for (double& bound : sums.bound)
     bound += floor;
   GroupConvolution result;
@@ -124,8 +179,9 @@ inline float lane_sum(__m128 v) {
   return _mm_cvtss_f32(_mm_add_ss(pairs, _mm_shuffle_ps(pairs, pairs, 1)));
 }
 
-// What a descent needs to know of its two trees: node words, where the bound codes sit, and the
-// constants that bring sums to the trees' scales and an accuracy target to unscaled units.
+// What a descent needs to know of its two trees: node words, where the bound codes sit, the
+// weights of a's groups when they are combined, and the constants that bring sums to the trees'
+// scales and an accuracy target to unscaled units.
 template <int CA, int CB>
 struct DescentConstants {
   static constexpr int C = CA > CB ? CA : CB;
@@ -135,13 +191,20 @@ struct DescentConstants {
   std::size_t codes_a, codes_b;  // word offset of the bound codes in a node
   float value_scale, bound_scale;
   float values_in_bound_units, linf_a_scale, linf_b_scale;
+  // Weighted descents: a stands for sum_g weight[g] a_g; total_weight = sum_g |weight[g]|.
+  float weight[3] = {1, 0, 0}, abs_weight[3] = {1, 0, 0};
+  float total_weight = 1;
+  bool combined = false;
   bool targeted;
   // A pair stops in a channel when its product term <= per_product |a b| + allowed[c] (bound
   // units): term + kRoundingPerMagnitude |a b| <= accuracy / 2 (|a b| + E), E the roots' product.
   float per_product;
+  // Weighted descents: term <= per_value |a b| - per_magnitude (sum_g |w_g a_g|) |b| + allowed[c].
+  float per_value, per_magnitude;
   float allowed[C];
 
-  DescentConstants(const PackedTreeView& ta, const PackedTreeView& tb, double accuracy)
+  DescentConstants(const PackedTreeView& ta, const PackedTreeView& tb, double accuracy,
+                   std::span<const float> weights = {})
       : a(ta.words().data()),
         b(tb.words().data()),
         words_a(ta.shape().words_per_node()),
@@ -149,6 +212,15 @@ struct DescentConstants {
         codes_a(1 + 2 * ta.shape().groups * CA),
         codes_b(1 + 2 * tb.shape().groups * CB),
         targeted(accuracy > 0) {
+    if (!weights.empty()) {
+      combined = weights.size() > 1;
+      total_weight = 0;
+      for (std::size_t g = 0; g < 3; ++g) {
+        weight[g] = g < weights.size() ? weights[g] : 0;
+        abs_weight[g] = std::abs(weight[g]);
+        total_weight += abs_weight[g];
+      }
+    }
     // Sums are kept without the trees' scales: values and rounding terms in units of
     // value_scale_a value_scale_b, bound products in units of bound_scale_a bound_scale_b; the
     // largest-deviation alternatives are brought to the latter's units.
@@ -160,9 +232,16 @@ struct DescentConstants {
     linf_a_scale = sb.value_scale / sb.bound_scale;
     linf_b_scale = sa.value_scale / sa.bound_scale;
     per_product = float((accuracy / 2 - kRoundingPerMagnitude) * values_in_bound_units);
+    per_value = float(accuracy / 2 * values_in_bound_units);
+    per_magnitude = float(kRoundingPerMagnitude * values_in_bound_units);
     for (int c = 0; c < C; ++c) {
-      const float product = lane_sum(abs_ps(_mm_mul_ps(
-          load_halves(a + 1 + 2 * (CA == 1 ? 0 : c)), load_halves(b + 1 + 2 * (CB == 1 ? 0 : c)))));
+      __m128 root_a = _mm_setzero_ps();
+      for (int g = 0; g < (weights.empty() ? 1 : int(weights.size())); ++g)
+        root_a =
+            _mm_add_ps(root_a, _mm_mul_ps(_mm_set1_ps(weight[g]),
+                                          load_halves(a + 1 + 2 * (g * CA + (CA == 1 ? 0 : c)))));
+      const float product =
+          lane_sum(abs_ps(_mm_mul_ps(root_a, load_halves(b + 1 + 2 * (CB == 1 ? 0 : c)))));
       allowed[c] = float(accuracy / 2 * (double(product) / 4) * values_in_bound_units);
     }
   }
@@ -170,28 +249,37 @@ struct DescentConstants {
 
 // The largest-deviation alternatives to the product term sa sb, in its units (see
 // packed_pair_bound), for trees with linf bounds: on SSE registers, and on AVX-512 below.
+// abs_a bounds |a| and the magnitude its halves' rounding scales with (for weighted groups,
+// sum_g |weight_g a_g|); vb is b's value.
 template <bool kLinfA, bool kLinfB, int CA, int CB>
-__m128 linf_terms(const DescentConstants<CA, CB>& k, __m128 term, __m128 sa, __m128 sb, __m128 va,
-                  __m128 vb) {
-  const __m128 abs_a = abs_ps(va), abs_b = abs_ps(vb);
+__m128 linf_terms(const DescentConstants<CA, CB>& k, __m128 term, __m128 sa, __m128 sb,
+                  __m128 abs_a, __m128 vb) {
+  const __m128 abs_b = abs_ps(vb);
   const __m128 ulp = _mm_set1_ps(float(kHalfRounding));
   const __m128 floor = _mm_set1_ps(float(kHalfSubnormalRounding));
-  const __m128 da = _mm_add_ps(_mm_mul_ps(abs_a, ulp), floor);
+  const __m128 da =
+      _mm_add_ps(_mm_mul_ps(abs_a, ulp), _mm_mul_ps(floor, _mm_set1_ps(k.total_weight)));
   const __m128 db = _mm_add_ps(_mm_mul_ps(abs_b, ulp), floor);
   const __m128 values = _mm_set1_ps(k.values_in_bound_units);
   if constexpr (kLinfA)
     term = _mm_min_ps(term, _mm_add_ps(_mm_mul_ps(_mm_mul_ps(sa, _mm_add_ps(abs_b, db)),
                                                   _mm_set1_ps(k.linf_a_scale)),
                                        _mm_mul_ps(_mm_mul_ps(abs_b, da), values)));
-  if constexpr (kLinfB)
-    term = _mm_min_ps(term, _mm_add_ps(_mm_mul_ps(_mm_mul_ps(sb, _mm_add_ps(abs_a, da)),
-                                                  _mm_set1_ps(k.linf_b_scale)),
-                                       _mm_mul_ps(_mm_mul_ps(abs_a, db), values)));
+  if constexpr (kLinfB) {
+    __m128 alternative =
+        _mm_add_ps(_mm_mul_ps(_mm_mul_ps(sb, _mm_add_ps(abs_a, da)), _mm_set1_ps(k.linf_b_scale)),
+                   _mm_mul_ps(_mm_mul_ps(abs_a, db), values));
+    if (k.combined)  // a combination of groups may be negative (see packed_pair_bound)
+      alternative = _mm_add_ps(alternative, _mm_mul_ps(sb, sa));
+    term = _mm_min_ps(term, alternative);
+  }
   return term;
 }
 
-// Per-pair arithmetic on SSE registers: four quadrants of one channel in each.
-template <int CA, int CB, int GA, bool kLinfA, bool kLinfB>
+// Per-pair arithmetic on SSE registers: four quadrants of one channel in each. GA groups of a
+// are summed apart (GA > 1: convolve_groups), or GW groups of a are combined with weights into
+// one function (GW > 1: weighted convolutions).
+template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB>
 struct NarrowPairs {
   static constexpr int C = CA > CB ? CA : CB;
   struct Sums {
@@ -222,22 +310,43 @@ struct NarrowPairs {
   // the internal quadrants that go on.
   static unsigned visit(const DescentConstants<CA, CB>& k, const std::uint32_t* wa,
                         const std::uint32_t* wb, unsigned internal, float area, Sums& sums) {
-    __m128 va[C], vb[C], product[C], term[C];
+    __m128 vb[C], product[C], magnitude[C], term[C];
     for (int c = 0; c < C; ++c) {
-      va[c] = load_halves(wa + 1 + 2 * (CA == 1 ? 0 : c));
+      const int ca = CA == 1 ? 0 : c;
+      __m128 va, abs_a, sa;
+      if constexpr (GW == 1) {
+        va = load_halves(wa + 1 + 2 * ca);
+        abs_a = abs_ps(va);
+        sa = load_bound_codes(wa + k.codes_a + ca);
+      } else {
+        va = abs_a = sa = _mm_setzero_ps();
+        for (int g = 0; g < GW; ++g) {
+          const __m128 v = load_halves(wa + 1 + 2 * (g * CA + ca));
+          va = _mm_add_ps(va, _mm_mul_ps(_mm_set1_ps(k.weight[g]), v));
+          abs_a = _mm_add_ps(abs_a, _mm_mul_ps(_mm_set1_ps(k.abs_weight[g]), abs_ps(v)));
+          sa = _mm_add_ps(sa, _mm_mul_ps(_mm_set1_ps(k.abs_weight[g]),
+                                         load_bound_codes(wa + k.codes_a + g * CA + ca)));
+        }
+      }
       vb[c] = load_halves(wb + 1 + 2 * (CB == 1 ? 0 : c));
-      product[c] = _mm_mul_ps(va[c], vb[c]);
-      const __m128 sa = load_bound_codes(wa + k.codes_a + (CA == 1 ? 0 : c));
+      product[c] = _mm_mul_ps(va, vb[c]);
+      magnitude[c] = _mm_mul_ps(abs_a, abs_ps(vb[c]));
       const __m128 sb = load_bound_codes(wb + k.codes_b + (CB == 1 ? 0 : c));
       term[c] = _mm_mul_ps(sa, sb);
       if constexpr (kLinfA || kLinfB)
-        term[c] = linf_terms<kLinfA, kLinfB>(k, term[c], sa, sb, va[c], vb[c]);
+        term[c] = linf_terms<kLinfA, kLinfB>(k, term[c], sa, sb, abs_a, vb[c]);
     }
     if (k.targeted) {
       __m128 enough = _mm_castsi128_ps(_mm_set1_epi32(-1));
       for (int c = 0; c < C; ++c) {
-        const __m128 allowed = _mm_add_ps(
-            _mm_mul_ps(_mm_set1_ps(k.per_product), abs_ps(product[c])), _mm_set1_ps(k.allowed[c]));
+        __m128 allowed;
+        if constexpr (GW == 1)
+          allowed = _mm_add_ps(_mm_mul_ps(_mm_set1_ps(k.per_product), abs_ps(product[c])),
+                               _mm_set1_ps(k.allowed[c]));
+        else  // the rounding scales with the groups' magnitude, not with the combined product
+          allowed = _mm_add_ps(_mm_sub_ps(_mm_mul_ps(_mm_set1_ps(k.per_value), abs_ps(product[c])),
+                                          _mm_mul_ps(_mm_set1_ps(k.per_magnitude), magnitude[c])),
+                               _mm_set1_ps(k.allowed[c]));
         enough = _mm_and_ps(enough, _mm_cmple_ps(term[c], allowed));
       }
       internal &= ~unsigned(_mm_movemask_ps(enough));
@@ -251,7 +360,7 @@ struct NarrowPairs {
             _mm_add_ps(sums.value[g][c], _mm_mul_ps(_mm_mul_ps(vg, vb[c]), leaf_area));
       }
       sums.bound[c] = _mm_add_ps(sums.bound[c], _mm_mul_ps(term[c], leaf_area));
-      sums.magnitude[c] = _mm_add_ps(sums.magnitude[c], _mm_mul_ps(abs_ps(product[c]), leaf_area));
+      sums.magnitude[c] = _mm_add_ps(sums.magnitude[c], _mm_mul_ps(magnitude[c], leaf_area));
     }
     return internal;
   }
@@ -265,12 +374,13 @@ inline __m512 abs512(__m512 x) {
 }
 
 template <bool kLinfA, bool kLinfB, int CA, int CB>
-__m512 linf_terms(const DescentConstants<CA, CB>& k, __m512 term, __m512 sa, __m512 sb, __m512 va,
-                  __m512 vb) {
-  const __m512 abs_a = abs512(va), abs_b = abs512(vb);
+__m512 linf_terms(const DescentConstants<CA, CB>& k, __m512 term, __m512 sa, __m512 sb,
+                  __m512 abs_a, __m512 vb) {
+  const __m512 abs_b = abs512(vb);
   const __m512 ulp = _mm512_set1_ps(float(kHalfRounding));
   const __m512 floor = _mm512_set1_ps(float(kHalfSubnormalRounding));
-  const __m512 da = _mm512_add_ps(_mm512_mul_ps(abs_a, ulp), floor);
+  const __m512 da = _mm512_add_ps(_mm512_mul_ps(abs_a, ulp),
+                                  _mm512_mul_ps(floor, _mm512_set1_ps(k.total_weight)));
   const __m512 db = _mm512_add_ps(_mm512_mul_ps(abs_b, ulp), floor);
   const __m512 values = _mm512_set1_ps(k.values_in_bound_units);
   if constexpr (kLinfA)
@@ -279,18 +389,19 @@ __m512 linf_terms(const DescentConstants<CA, CB>& k, __m512 term, __m512 sa, __m
                             _mm512_add_ps(_mm512_mul_ps(_mm512_mul_ps(sa, _mm512_add_ps(abs_b, db)),
                                                         _mm512_set1_ps(k.linf_a_scale)),
                                           _mm512_mul_ps(_mm512_mul_ps(abs_b, da), values)));
-  if constexpr (kLinfB)
-    term =
-        _mm512_maskz_min_ps(0xffff, term,
-                            _mm512_add_ps(_mm512_mul_ps(_mm512_mul_ps(sb, _mm512_add_ps(abs_a, da)),
-                                                        _mm512_set1_ps(k.linf_b_scale)),
-                                          _mm512_mul_ps(_mm512_mul_ps(abs_a, db), values)));
+  if constexpr (kLinfB) {
+    __m512 alternative = _mm512_add_ps(
+        _mm512_mul_ps(_mm512_mul_ps(sb, _mm512_add_ps(abs_a, da)), _mm512_set1_ps(k.linf_b_scale)),
+        _mm512_mul_ps(_mm512_mul_ps(abs_a, db), values));
+    if (k.combined) alternative = _mm512_add_ps(alternative, _mm512_mul_ps(sb, sa));
+    term = _mm512_maskz_min_ps(0xffff, term, alternative);
+  }
   return term;
 }
 
 // Per-pair arithmetic on AVX-512 registers: the four quadrants of all three channels in one
 // register (lanes 4c .. 4c + 3 hold channel c), a grey side repeated in all three.
-template <int CA, int CB, int GA, bool kLinfA, bool kLinfB>
+template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB>
 struct WidePairs {
   static constexpr int C = 3;
   static constexpr __mmask16 kLanes = 0x0fff;
@@ -335,14 +446,36 @@ struct WidePairs {
 
   static unsigned visit(const DescentConstants<CA, CB>& k, const std::uint32_t* wa,
                         const std::uint32_t* wb, unsigned internal, float area, Sums& sums) {
-    const __m512 va = values(wa, CA, 0), vb = values(wb, CB, 0);
+    __m512 va, abs_a, sa;
+    if constexpr (GW == 1) {
+      va = values(wa, CA, 0);
+      abs_a = abs512(va);
+      sa = bounds(wa, CA, k.codes_a);
+    } else {
+      va = abs_a = sa = _mm512_setzero_ps();
+      for (int g = 0; g < GW; ++g) {
+        const __m512 v = values(wa, CA, g);
+        va = _mm512_fmadd_ps(_mm512_set1_ps(k.weight[g]), v, va);
+        abs_a = _mm512_fmadd_ps(_mm512_set1_ps(k.abs_weight[g]), abs512(v), abs_a);
+        sa = _mm512_fmadd_ps(_mm512_set1_ps(k.abs_weight[g]), bounds(wa, CA, k.codes_a + g * CA),
+                             sa);
+      }
+    }
+    const __m512 vb = values(wb, CB, 0);
     const __m512 product = _mm512_mul_ps(va, vb);
-    const __m512 sa = bounds(wa, CA, k.codes_a), sb = bounds(wb, CB, k.codes_b);
+    const __m512 sb = bounds(wb, CB, k.codes_b);
     __m512 term = _mm512_mul_ps(sa, sb);
-    if constexpr (kLinfA || kLinfB) term = linf_terms<kLinfA, kLinfB>(k, term, sa, sb, va, vb);
+    if constexpr (kLinfA || kLinfB) term = linf_terms<kLinfA, kLinfB>(k, term, sa, sb, abs_a, vb);
     if (k.targeted) {
+      __m512 per_pair;
+      if constexpr (GW == 1)
+        per_pair = _mm512_mul_ps(_mm512_set1_ps(k.per_product), abs512(product));
+      else  // the rounding scales with the groups' magnitude, not with the combined product
+        per_pair = _mm512_sub_ps(
+            _mm512_mul_ps(_mm512_set1_ps(k.per_value), abs512(product)),
+            _mm512_mul_ps(_mm512_set1_ps(k.per_magnitude), _mm512_mul_ps(abs_a, abs512(vb))));
       const __m512 allowed = _mm512_add_ps(
-          _mm512_mul_ps(_mm512_set1_ps(k.per_product), abs512(product)),
+          per_pair,
           _mm512_setr_ps(k.allowed[0], k.allowed[0], k.allowed[0], k.allowed[0], k.allowed[1],
                          k.allowed[1], k.allowed[1], k.allowed[1], k.allowed[2], k.allowed[2],
                          k.allowed[2], k.allowed[2], 0, 0, 0, 0));
@@ -360,7 +493,7 @@ struct WidePairs {
                              _mm512_mul_ps(_mm512_mul_ps(values(wa, CA, g), vb), area_v));
     sums.bound = _mm512_mask_add_ps(sums.bound, stop, sums.bound, _mm512_mul_ps(term, area_v));
     sums.magnitude = _mm512_mask_add_ps(sums.magnitude, stop, sums.magnitude,
-                                        _mm512_mul_ps(abs512(product), area_v));
+                                        _mm512_mul_ps(_mm512_mul_ps(abs_a, abs512(vb)), area_v));
     return internal;
   }
 };
@@ -377,8 +510,9 @@ class PackedDescent {
  public:
   using Sums = typename Pairs::Sums;
 
-  PackedDescent(const PackedTreeView& a, const PackedTreeView& b, double accuracy)
-      : k_(a, b, accuracy) {}
+  PackedDescent(const PackedTreeView& a, const PackedTreeView& b, double accuracy,
+                std::span<const float> weights)
+      : k_(a, b, accuracy, weights) {}
 
   Sums run(std::uint32_t root_a, std::uint32_t root_b, float quadrant_area, int depth) const {
     if (depth > kMaxTreeLevels) throw std::runtime_error("quadtree deeper than its resolution");
@@ -448,16 +582,17 @@ class PackedDescent {
   DescentConstants<CA, CB> k_;
 };
 
-template <int CA, int CB, int GA, bool kLinfA, bool kLinfB>
-GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, double accuracy) {
+template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB>
+GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, double accuracy,
+                              std::span<const float> weights) {
   constexpr int C = CA > CB ? CA : CB;
 #if defined(__AVX512F__) && defined(__AVX512BW__) && defined(__AVX512VL__)
-  using Pairs = std::conditional_t<C == 3, WidePairs<CA, CB, GA, kLinfA, kLinfB>,
-                                   NarrowPairs<CA, CB, GA, kLinfA, kLinfB>>;
+  using Pairs = std::conditional_t<C == 3, WidePairs<CA, CB, GA, GW, kLinfA, kLinfB>,
+                                   NarrowPairs<CA, CB, GA, GW, kLinfA, kLinfB>>;
 #else
-  using Pairs = NarrowPairs<CA, CB, GA, kLinfA, kLinfB>;
+  using Pairs = NarrowPairs<CA, CB, GA, GW, kLinfA, kLinfB>;
 #endif
-  const PackedDescent<Pairs, CA, CB> descent(a, b, accuracy);
+  const PackedDescent<Pairs, CA, CB> descent(a, b, accuracy, weights);
   const typename Pairs::Sums sums = descent.run(0, 0, 0.25f, 0);
   const DescentConstants<CA, CB>& k = descent.constants();
   GroupConvolution result;
@@ -467,20 +602,22 @@ GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, 
       result.value[g][c] = sums.value_of(g, lane) * k.value_scale;
     result.bound[c] =
         float(double(sums.bound_of(lane)) * k.bound_scale +
-              (kRoundingPerMagnitude * sums.magnitude_of(lane) + kRoundingFloor) * k.value_scale);
+              (kRoundingPerMagnitude * sums.magnitude_of(lane) + kRoundingFloor * k.total_weight) *
+                  k.value_scale);
   }
   return result;
 }
 
-template <int GA>
-GroupConvolution dispatch_simd(const PackedTreeView& a, const PackedTreeView& b, double accuracy) {
+template <int GA, int GW>
+GroupConvolution dispatch_simd(const PackedTreeView& a, const PackedTreeView& b, double accuracy,
+                               std::span<const float> weights) {
   const int ca = a.shape().channels, cb = b.shape().channels;
   const bool la = a.shape().bounds == BoundKind::linf, lb = b.shape().bounds == BoundKind::linf;
   auto by_kinds = [&]<int CA, int CB>() {
-    if (la && lb) return descend_simd<CA, CB, GA, true, true>(a, b, accuracy);
-    if (la) return descend_simd<CA, CB, GA, true, false>(a, b, accuracy);
-    if (lb) return descend_simd<CA, CB, GA, false, true>(a, b, accuracy);
-    return descend_simd<CA, CB, GA, false, false>(a, b, accuracy);
+    if (la && lb) return descend_simd<CA, CB, GA, GW, true, true>(a, b, accuracy, weights);
+    if (la) return descend_simd<CA, CB, GA, GW, true, false>(a, b, accuracy, weights);
+    if (lb) return descend_simd<CA, CB, GA, GW, false, true>(a, b, accuracy, weights);
+    return descend_simd<CA, CB, GA, GW, false, false>(a, b, accuracy, weights);
   };
   if (ca == 1 && cb == 1) return by_kinds.template operator()<1, 1>();
   if (ca == 1) return by_kinds.template operator()<1, 3>();
@@ -490,21 +627,39 @@ GroupConvolution dispatch_simd(const PackedTreeView& a, const PackedTreeView& b,
 
 #endif  // SSE4.1 and F16C
 
+// One group weighted by w: the value times w, the bound times |w|.
+[[maybe_unused]] GroupConvolution scalar_weight_of(GroupConvolution g, float w) {
+  for (int c = 0; c < 3; ++c) {
+    g.value[0][c] *= w;
+    g.bound[c] *= std::abs(w);
+  }
+  return g;
+}
+
 GroupConvolution dispatch(const PackedTreeView& a, const PackedTreeView& b, int groups,
                           double accuracy) {
 #if defined(__SSE4_1__) && defined(__F16C__)
   check_compatible(a.shape(), b.shape());
   switch (groups) {
     case 1:
-      return dispatch_simd<1>(a, b, accuracy);
+      return dispatch_simd<1, 1>(a, b, accuracy, {});
     case 2:
-      return dispatch_simd<2>(a, b, accuracy);
+      return dispatch_simd<2, 1>(a, b, accuracy, {});
     default:
-      return dispatch_simd<3>(a, b, accuracy);
+      return dispatch_simd<3, 1>(a, b, accuracy, {});
   }
 #else
   return scalar(a, b, groups, accuracy);
 #endif
+}
+
+void check_weights(const PackedTreeView& a, std::span<const float> weights) {
+  if (weights.empty() || int(weights.size()) > a.shape().bounded_groups)
+    throw std::invalid_argument("weights for " + std::to_string(weights.size()) +
+                                " groups of a tree with bounds for " +
+                                std::to_string(a.shape().bounded_groups));
+  for (const float w : weights)
+    if (!std::isfinite(w)) throw std::invalid_argument("a group weight is not finite");
 }
 
 }  // namespace
@@ -518,6 +673,35 @@ Convolution convolve(const PackedTreeView& a, const PackedTreeView& b,
 Convolution convolve_scalar(const PackedTreeView& a, const PackedTreeView& b,
                             const ConvolutionOptions& options) {
   const GroupConvolution g = scalar(a, b, 1, options.accuracy);
+  return {g.value[0], g.bound};
+}
+
+Convolution convolve_weighted(const PackedTreeView& a, std::span<const float> weights,
+                              const PackedTreeView& b, const ConvolutionOptions& options) {
+  check_weights(a, weights);
+#if defined(__SSE4_1__) && defined(__F16C__)
+  check_compatible(a.shape(), b.shape());
+  GroupConvolution g;
+  switch (weights.size()) {
+    case 1:
+      g = scalar_weight_of(dispatch_simd<1, 1>(a, b, options.accuracy, {}), weights[0]);
+      break;
+    case 2:
+      g = dispatch_simd<1, 2>(a, b, options.accuracy, weights);
+      break;
+    default:
+      g = dispatch_simd<1, 3>(a, b, options.accuracy, weights);
+  }
+#else
+  const GroupConvolution g = scalar(a, b, 1, options.accuracy, weights);
+#endif
+  return {g.value[0], g.bound};
+}
+
+Convolution convolve_weighted_scalar(const PackedTreeView& a, std::span<const float> weights,
+                                     const PackedTreeView& b, const ConvolutionOptions& options) {
+  check_weights(a, weights);
+  const GroupConvolution g = scalar(a, b, 1, options.accuracy, weights);
   return {g.value[0], g.bound};
 }
 

@@ -4,29 +4,35 @@
 #include <bit>
 #include <cmath>
 #include <cstring>
+#include <stdexcept>
+#include <string>
 
 namespace basis {
 
-float PackedTreeView::largest_deviation_bound(int n, int c, int q, int level) const {
-  const float b = bound(n, c, q);
+float PackedTreeView::largest_deviation_bound(int n, int g, int c, int q, int level) const {
+  const float b = bound(n, g, c, q);
   if (shape_.bounds == BoundKind::linf) return b;
   // RMS x sqrt(texels): no texel deviates more than the RMS of all of them allows.
   const double texels_per_side = double(shape_.resolution) / double(1 << level);
   return float(double(b) * std::max(1.0, texels_per_side) * (1 + 1e-6));
 }
 
-PackedTree pack(const Quadtree& tree, BoundKind bounds) {
+PackedTree pack(const Quadtree& tree, BoundKind bounds, int bounded_groups) {
   const QuadtreeView source = tree.view();
   const QuadtreeShape& s = tree.shape;
+  if (bounded_groups < 1 || bounded_groups > s.bounded_groups)
+    throw std::invalid_argument("cannot keep bounds of " + std::to_string(bounded_groups) +
+                                " groups of a tree that has them for " +
+                                std::to_string(s.bounded_groups));
   PackedTree out;
-  out.shape = {s.resolution, s.channels, s.groups, bounds};
+  out.shape = {s.resolution, s.channels, s.groups, bounds, bounded_groups};
   const int count = source.node_count();
   const int words = out.shape.words_per_node();
   const bool have_deviations = !tree.deviations.empty();
-  auto source_bound = [&](int node, int c, int q) -> double {
+  auto source_bound = [&](int node, int g, int c, int q) -> double {
     if (bounds == BoundKind::l2 && have_deviations)
-      return tree.deviations[std::size_t(node) * s.channels + c].lane[q];
-    return source.error(node, c, q);
+      return tree.deviations[std::size_t(node) * s.error_stride() + g * s.channels + c].lane[q];
+    return source.error(node, g, c, q);
   };
 
   // Scales: the largest value a little below the largest half; bounds up to the largest.
@@ -42,7 +48,8 @@ PackedTree pack(const Quadtree& tree, BoundKind bounds) {
   // value moved.
   const std::size_t values_per_node = std::size_t(s.groups) * s.channels * 4;
   std::vector<std::uint16_t> halves(std::size_t(count) * values_per_node);
-  std::vector<double> moved_bounds(std::size_t(count) * s.channels * 4);
+  const std::size_t bounds_per_node = std::size_t(bounded_groups) * s.channels * 4;
+  std::vector<double> moved_bounds(std::size_t(count) * bounds_per_node);
   double largest_bound = 0;
   for (int n = 0; n < count; ++n) {
     std::uint16_t* h = halves.data() + std::size_t(n) * values_per_node;
@@ -52,10 +59,10 @@ PackedTree pack(const Quadtree& tree, BoundKind bounds) {
           const float v = source.value(n, g, c, q);
           const std::uint16_t half = float_to_half(float(double(v) / value_scale));
           h[(g * s.channels + c) * 4 + q] = half;
-          if (g != 0) continue;
+          if (g >= bounded_groups) continue;
           const double moved = std::abs(double(half_to_float(half)) * value_scale - double(v));
-          const double b = source_bound(n, c, q) + moved;
-          moved_bounds[(std::size_t(n) * s.channels + c) * 4 + q] = b;
+          const double b = source_bound(n, g, c, q) + moved;
+          moved_bounds[std::size_t(n) * bounds_per_node + (g * s.channels + c) * 4 + q] = b;
           largest_bound = std::max(largest_bound, b);
         }
   }
@@ -96,9 +103,8 @@ PackedTree pack(const Quadtree& tree, BoundKind bounds) {
     std::memcpy(w + 1, halves.data() + std::size_t(n) * values_per_node,
                 values_per_node * sizeof(std::uint16_t));
     auto* codes = reinterpret_cast<std::uint8_t*>(w + 1 + 2 * s.groups * s.channels);
-    for (int c = 0; c < s.channels; ++c)
-      for (int q = 0; q < 4; ++q)
-        codes[c * 4 + q] = code_for(moved_bounds[(std::size_t(n) * s.channels + c) * 4 + q]);
+    for (std::size_t k = 0; k < bounds_per_node; ++k)
+      codes[k] = code_for(moved_bounds[std::size_t(n) * bounds_per_node + k]);
   }
   return out;
 }

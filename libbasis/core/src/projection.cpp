@@ -143,6 +143,15 @@ void QuadtreeProjector::project(const Grid& grid, const ProjectionOptions& optio
   std::vector<float> tolerances = absolute_tolerances(options, means);
   for (int p = channels; p < bounded; ++p)
     tolerances.push_back(float(options.group_tolerance_scale * tolerances[p % channels]));
+  // Locally relative: tolerance x max(|quadrant value|, floor x |mean|) per plane.
+  local_tolerance_.clear();
+  if (options.local_floor > 0 && options.mode == ProjectionOptions::Mode::relative) {
+    for (int p = 0; p < bounded; ++p) {
+      const double scale = p < channels ? 1 : options.group_tolerance_scale;
+      local_tolerance_.push_back(float(scale * options.tolerance));
+      tolerances[p] = float(tolerances[p] * options.local_floor);
+    }
+  }
   cut(grid, tolerances, max_depth, out);
 }
 
@@ -207,22 +216,22 @@ void QuadtreeProjector::build_deviations(const Grid& grid) {
   std::size_t total = 0;
   for (int k = 0; k < levels_; ++k)
     total += std::size_t(1) << (2 * k);
-  deviation_storage_.resize(total * channels_);
-  deviation_planes_.assign(std::size_t(levels_) * channels_, nullptr);
+  deviation_storage_.resize(total * bounded_);
+  deviation_planes_.assign(std::size_t(levels_) * bounded_, nullptr);
   std::size_t offset = 0;
   for (int k = 0; k < levels_; ++k) {
     const std::size_t cells = std::size_t(1) << (2 * k);
-    for (int c = 0; c < channels_; ++c)
-      deviation_planes_[std::size_t(k) * channels_ + c] =
-          deviation_storage_.data() + offset * channels_ + c * cells;
+    for (int p = 0; p < bounded_; ++p)
+      deviation_planes_[std::size_t(k) * bounded_ + p] =
+          deviation_storage_.data() + offset * bounded_ + p * cells;
     offset += cells;
   }
-  // Bottom-up in double, per channel: each cell's mean and sum of squared deviations of its
-  // texels (Chan et al.'s pairwise update, free of cancellation), then the RMS deviation from
-  // the cell's stored float average, rounded up. Levels alternate between two pairs of arrays
-  // so that the loop over a row has no aliasing and vectorises.
-  for (int c = 0; c < channels_; ++c) {
-    const std::span<const float> texels = grid.plane(0, c);
+  // Bottom-up in double, per bounded plane: each cell's mean and sum of squared deviations of
+  // its texels (Chan et al.'s pairwise update, free of cancellation), then the RMS deviation
+  // from the cell's stored float average, rounded up. Levels alternate between two pairs of
+  // arrays so that the loop over a row has no aliasing and vectorises.
+  for (int p = 0; p < bounded_; ++p) {
+    const std::span<const float> texels = grid.plane(p / channels_, p % channels_);
     moments_[0].assign(texels.begin(), texels.end());
     moments_[1].assign(texels.size(), 0.0);
     moments_[2].resize(texels.size() / 4);
@@ -235,8 +244,8 @@ void QuadtreeProjector::build_deviations(const Grid& grid) {
       const double* fine_squares = moments_[from + 1].data();
       double* coarse_mean = moments_[2 - from].data();
       double* coarse_squares = moments_[3 - from].data();
-      const float* stored = values(grid, k - 1, c);
-      float* deviation = deviations(k - 1, c);
+      const float* stored = values(grid, k - 1, p);
+      float* deviation = deviations(k - 1, p);
       const double inverse_texels = 1 / (4 * texels_per_child);
       for (int y = 0; y < coarse; ++y) {
         const double* m0 = fine_mean + std::size_t(2 * y) * fine;
@@ -272,7 +281,7 @@ void QuadtreeProjector::build_deviations(const Grid& grid) {
 void QuadtreeProjector::cut(const Grid& grid, std::span<const float> tolerances, int max_depth,
                             Quadtree& out) {
   const int channels = grid.channels;
-  out.shape = QuadtreeShape{grid.resolution, channels, grid.groups};
+  out.shape = QuadtreeShape{grid.resolution, channels, grid.groups, bounded_ / channels};
   const std::size_t stride = out.shape.stride();
   std::size_t count = 0;
   pending_.clear();
@@ -283,12 +292,12 @@ void QuadtreeProjector::cut(const Grid& grid, std::span<const float> tolerances,
     const auto node = std::int32_t(count++);
     if (count * stride > out.nodes.size()) {
       out.nodes.resize(std::max<std::size_t>(2 * out.nodes.size(), 16 * stride));
-      out.errors.resize(out.nodes.size() / stride * channels);
+      out.errors.resize(out.nodes.size() / stride * bounded_);
       out.deviations.resize(out.errors.size());
     }
     Quad* quads = &out.nodes[node * stride];
-    Quad* errors_out = &out.errors[node * channels];
-    Quad* deviations_out = &out.deviations[node * channels];
+    Quad* errors_out = &out.errors[node * bounded_];
+    Quad* deviations_out = &out.deviations[node * bounded_];
     if (cell.parent >= 0) {
       std::int32_t* parent_links =
           reinterpret_cast<std::int32_t*>(&out.nodes[cell.parent * stride]);
@@ -310,17 +319,24 @@ void QuadtreeProjector::cut(const Grid& grid, std::span<const float> tolerances,
         std::memcpy(error.lane, src + row0, 2 * sizeof(float));
         std::memcpy(error.lane + 2, src + row1, 2 * sizeof(float));
       }
-      if (p < channels) errors_out[p] = error;  // stored bounds: group 0
-      for (int q = 0; q < 4; ++q)
-        refine |= int(error.lane[q] > tolerances[p]) << q;
-    }
-    for (int c = 0; c < channels; ++c) {
-      if (k < levels_) {
-        const float* src = deviations(k, c);
-        std::memcpy(deviations_out[c].lane, src + row0, 2 * sizeof(float));
-        std::memcpy(deviations_out[c].lane + 2, src + row1, 2 * sizeof(float));
+      errors_out[p] = error;
+      if (local_tolerance_.empty()) {
+        for (int q = 0; q < 4; ++q)
+          refine |= int(error.lane[q] > tolerances[p]) << q;
       } else {
-        deviations_out[c] = Quad{};
+        // Relative to the quadrant's own value of group 0 (never below the floor).
+        const Quad& v = quads[1 + p % channels];
+        for (int q = 0; q < 4; ++q)
+          refine |= int(error.lane[q] >
+                        std::max(tolerances[p], local_tolerance_[p] * std::abs(v.lane[q])))
+                    << q;
+      }
+      if (k < levels_) {
+        const float* src = deviations(k, p);
+        std::memcpy(deviations_out[p].lane, src + row0, 2 * sizeof(float));
+        std::memcpy(deviations_out[p].lane + 2, src + row1, 2 * sizeof(float));
+      } else {
+        deviations_out[p] = Quad{};
       }
     }
     if (k >= max_depth) refine = 0;
@@ -332,8 +348,8 @@ void QuadtreeProjector::cut(const Grid& grid, std::span<const float> tolerances,
         pending_.push_back({k, 2 * cell.x + (q & 1), 2 * cell.y + (q >> 1), node, q});
   }
   out.nodes.resize(count * stride);
-  out.errors.resize(count * channels);
-  out.deviations.resize(count * channels);
+  out.errors.resize(count * bounded_);
+  out.deviations.resize(count * bounded_);
 }
 
 Quadtree project(const Grid& grid, const ProjectionOptions& options) {

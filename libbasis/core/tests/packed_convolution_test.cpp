@@ -1,10 +1,11 @@
 // Convolution of packed trees: the packed trees' product to half precision, the full-resolution
-// product within
-// the certified bound for every kind of bound, SIMD equal to scalar, accuracy-targeted descents
-// within their bounds and no looser than the target allows, channel groups.
+// product within the certified bound for every kind of bound, SIMD equal to scalar,
+// accuracy-targeted descents within their bounds and no looser than the target allows, channel
+// groups, and groups combined with weights (signed) within their bound.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
 #include "basis/core/convolution.h"
 #include "basis/core/dense.h"
@@ -139,6 +140,90 @@ TEST(PackedConvolution, GroupsEqualSeparateDenseProductsInSimdAndScalar) {
     EXPECT_EQ(simd.value[0], convolve(ta.view(), tb.view()).value);
     EXPECT_EQ(simd.bound, convolve(ta.view(), tb.view()).bound);
   }
+}
+
+// A three-group function: group 0 one of the test functions (non-negative), groups 1 and 2
+// signed (a smooth wave and random noise), as table entries with derivatives hold them.
+Grid three_groups(const Grid& base, unsigned seed) {
+  Grid g(base.resolution, base.channels, 3);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> noise(-1, 1);
+  const int n = base.resolution;
+  for (int c = 0; c < base.channels; ++c)
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x) {
+        g.at(0, c, x, y) = base.at(0, c, x, y);
+        g.at(1, c, x, y) = float(3 * std::sin(9.0 * x / n + c) * std::cos(5.0 * y / n));
+        g.at(2, c, x, y) = noise(rng) * (x > n / 2 ? 4.0f : 0.5f);
+      }
+  return g;
+}
+
+TEST(PackedConvolution, WeightedGroupsLieWithinTheirBoundOfTheTexels) {
+  const std::vector<std::array<float, 3>> weight_sets = {
+      {1, 0, 0}, {0.6f, 0.3f, -0.2f}, {0.2f, -1.5f, 0.7f}, {0, 1, 0}, {-0.4f, 0, 2}};
+  for (const auto& [channels_a, channels_b] : {std::pair{1, 1}, {3, 3}, {1, 3}, {3, 1}})
+    for (const BoundKind kind_a : {BoundKind::l2, BoundKind::linf})
+      for (const BoundKind kind_b : {BoundKind::l2, BoundKind::linf})
+        for (const auto& [name_a, base] : test_functions(32, channels_a, 41)) {
+          const Grid grid_a = three_groups(base, 42);
+          const Quadtree tree_a = project(
+              grid_a, {.tolerance = 0.1, .cut_on_all_groups = true, .group_tolerance_scale = 1});
+          ASSERT_EQ(tree_a.shape.bounded_groups, 3);
+          const PackedTree a = pack(tree_a, kind_a, 3);
+          for (const auto& [name_b, grid_b] : test_functions(64, channels_b, 43)) {
+            const PackedTree b = pack(project(grid_b, {.tolerance = 0.1}), kind_b);
+            for (const auto& w : weight_sets)
+              for (const double accuracy : {0.0, 0.01, 0.1}) {
+                const std::string what = name_a + " x " + name_b + " kinds " +
+                                         std::to_string(int(kind_a)) + std::to_string(int(kind_b)) +
+                                         " weights " + std::to_string(w[0]) + "," +
+                                         std::to_string(w[1]) + "," + std::to_string(w[2]) +
+                                         " accuracy " + std::to_string(accuracy);
+                const Convolution simd = convolve_weighted(a.view(), w, b.view(), {accuracy});
+                const Convolution scalar =
+                    convolve_weighted_scalar(a.view(), w, b.view(), {accuracy});
+                for (int c = 0; c < 3; ++c) {
+                  const int ca = channels_a == 1 ? 0 : c, cb = channels_b == 1 ? 0 : c;
+                  double texels = 0, magnitude = 0;
+                  for (int y = 0; y < 64; ++y)
+                    for (int x = 0; x < 64; ++x) {
+                      double fa = 0;
+                      for (int g = 0; g < 3; ++g)
+                        fa += w[g] * grid_a.at(g, ca, x / 2, y / 2);
+                      texels += fa * grid_b.at(0, cb, x, y);
+                      magnitude += std::abs(fa * grid_b.at(0, cb, x, y));
+                    }
+                  texels /= 64.0 * 64;
+                  magnitude /= 64.0 * 64;
+                  for (const Convolution& r : {simd, scalar})
+                    EXPECT_LE(std::abs(r.value[c] - texels),
+                              r.bound[c] * (1 + 1e-4) + 1e-6 * magnitude)
+                        << what << " bound " << r.bound[c];
+                  if (accuracy == 0) {
+                    EXPECT_LT(std::abs(simd.value[c] - scalar.value[c]), 1e-6 * magnitude) << what;
+                    EXPECT_LT(relative_gap(simd.bound[c], scalar.bound[c]), 1e-5) << what;
+                  }
+                }
+              }
+          }
+        }
+}
+
+TEST(PackedConvolution, WeightedGroupsOfOneGroupScaleThePlainConvolution) {
+  const auto functions = test_functions(32, 3, 44);
+  const PackedTree a = pack(project(functions[1].grid, {.tolerance = 0.05}));
+  const PackedTree b = pack(project(functions[2].grid, {.tolerance = 0.05}));
+  const Convolution plain = convolve(a.view(), b.view());
+  const std::array<float, 1> half_weight = {-0.5f};
+  const Convolution weighted = convolve_weighted(a.view(), half_weight, b.view());
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_FLOAT_EQ(weighted.value[c], -0.5f * plain.value[c]);
+    EXPECT_FLOAT_EQ(weighted.bound[c], 0.5f * plain.bound[c]);
+  }
+  // Weights for groups without bounds are refused: their bound would not hold.
+  const std::array<float, 2> two = {1, 1};
+  EXPECT_THROW(convolve_weighted(a.view(), two, b.view()), std::invalid_argument);
 }
 
 }  // namespace

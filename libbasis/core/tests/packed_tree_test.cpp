@@ -65,7 +65,8 @@ TEST(Half, RoundsToNearestEven) {
     if (std::isnan(f)) continue;
     ASSERT_EQ(float_to_half(f), reference_float_to_half(f)) << std::hexfloat << f;
 #if defined(__F16C__)
-    ASSERT_EQ(float_to_half(f), std::uint16_t(_cvtss_sh(f, _MM_FROUND_TO_NEAREST_INT)))
+    ASSERT_EQ(float_to_half(f), std::uint16_t(_mm_extract_epi16(
+                                    _mm_cvtps_ph(_mm_set_ss(f), _MM_FROUND_TO_NEAREST_INT), 0)))
         << std::hexfloat << f;
 #endif
   }
@@ -74,7 +75,7 @@ TEST(Half, RoundsToNearestEven) {
 class PackedTrees : public ::testing::TestWithParam<std::tuple<int, int>> {};
 
 TEST_P(PackedTrees, KeepTopologyValuesAndCertifiedBounds) {
-  const auto [n, channels] = GetParam();
+  const int n = std::get<0>(GetParam()), channels = std::get<1>(GetParam());
   for (const auto& function : test_functions(n, channels, 21)) {
     const Quadtree tree = project(function.grid, {.tolerance = 0.05});
     for (const BoundKind kind : {BoundKind::l2, BoundKind::linf}) {

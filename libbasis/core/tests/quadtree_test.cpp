@@ -40,7 +40,7 @@ void for_each_quadrant_deviation(const QuadtreeView& tree, const Grid& grid, Che
 class QuadtreeProperties : public ::testing::TestWithParam<std::tuple<int, int>> {};
 
 TEST_P(QuadtreeProperties, ReconstructionWithinToleranceAndIntegralExact) {
-  const auto [n, channels] = GetParam();
+  const int n = std::get<0>(GetParam()), channels = std::get<1>(GetParam());
   for (const auto& [name, grid] : test_functions(n, channels, 11)) {
     for (double tolerance : {0.0, 0.01, 0.05, 0.5}) {
       const Quadtree tree = project(grid, {.tolerance = tolerance});
@@ -65,7 +65,7 @@ TEST_P(QuadtreeProperties, ReconstructionWithinToleranceAndIntegralExact) {
 }
 
 TEST_P(QuadtreeProperties, StoredErrorBoundsEveryTexel) {
-  const auto [n, channels] = GetParam();
+  const int n = std::get<0>(GetParam()), channels = std::get<1>(GetParam());
   for (const auto bound : {ProjectionOptions::Bound::exact, ProjectionOptions::Bound::paper})
     for (const auto& function : test_functions(n, channels, 5)) {
       const std::string& name = function.name;
@@ -84,7 +84,7 @@ TEST_P(QuadtreeProperties, StoredErrorBoundsEveryTexel) {
 // The stored RMS deviation of every quadrant, against the texels under it (in double): never
 // below it, and above it only by float rounding; never above the error bound.
 TEST_P(QuadtreeProperties, StoredDeviationsAreTheRmsOfEveryQuadrant) {
-  const auto [n, channels] = GetParam();
+  const int n = std::get<0>(GetParam()), channels = std::get<1>(GetParam());
   for (const auto& function : test_functions(n, channels, 6)) {
     const Quadtree tree = project(function.grid, {.tolerance = 0.05});
     ASSERT_EQ(tree.deviations.size(), tree.errors.size());
@@ -117,7 +117,7 @@ TEST_P(QuadtreeProperties, StoredDeviationsAreTheRmsOfEveryQuadrant) {
 }
 
 TEST_P(QuadtreeProperties, ExactBoundsNeverNeedMoreNodesThanThePapers) {
-  const auto [n, channels] = GetParam();
+  const int n = std::get<0>(GetParam()), channels = std::get<1>(GetParam());
   for (const auto& [name, grid] : test_functions(n, channels, 6))
     for (double tolerance : {0.01, 0.05, 0.2}) {
       const int exact = project(grid, {.tolerance = tolerance}).node_count();

@@ -99,7 +99,7 @@ struct BrightPieces {
   struct Piece {
     std::size_t ray;    // its pixel's shadow ray
     std::size_t texel;  // y * N + x
-    int light;          // compact light kept apart, or -1 for a texel
+    int light;          // 4 x the compact light kept apart + its part, or -1 for a texel
     Color energy;
     Vec3 local;  // direction in the capture's frame
   };
@@ -114,8 +114,15 @@ BrightPieces gather_bright_pieces(const Environment& environment, const Vec3& or
   const bool lights_apart = options.compact_lights == CaptureOptions::CompactLights::apart;
   const int s = std::max(1, options.bright_subsamples);
   BrightPieces out;
+  const auto compact = environment.lights();
   for (const Environment::BrightPixel& b : environment.bright_pixels()) {
     const int light = lights_apart ? b.light : -1;
+    // A light wider than kSplitLightRadiusDegrees is kept as the four quarters of its extent
+    // around its centre (part 4 light + q), so that shading sees how it spreads.
+    const bool split = light >= 0 && compact[std::size_t(light)].radius >
+                                         kSplitLightRadiusDegrees * std::numbers::pi / 180;
+    const Frame around =
+        split ? Frame::from_normal(compact[std::size_t(light)].direction) : Frame{};
     bool any = false;
     environment.for_each_subpixel(
         b.row, b.column, b.column + 1, s, [&](int, const Vec3& w, double solid_angle) {
@@ -124,9 +131,13 @@ BrightPieces gather_bright_pieces(const Environment& environment, const Vec3& or
           const auto [tx, ty] = cosine_hemisphere_texel(l, n);
           const double weight =
               light >= 0 ? solid_angle : solid_angle * l.z() / std::numbers::pi / texel_area;
+          const Vec3 offset = around.to_local(w);
+          const int part = light < 0 ? -1
+                           : !split  ? 4 * light
+                                     : 4 * light + (offset.x() >= 0) + 2 * (offset.y() >= 0);
           out.pieces.push_back({out.shadow_rays.size(),
                                 std::size_t(ty) * n + tx,
-                                light,
+                                part,
                                 {b.excess[0] * weight, b.excess[1] * weight, b.excess[2] * weight},
                                 l});
           any = true;
@@ -145,7 +156,7 @@ void deposit_bright_pieces(const BrightPieces& bright, std::span<const RayHit> s
     Color energy{0, 0, 0};
     Vec3 direction = Vec3::Zero();
   };
-  std::vector<Seen> seen(environment_lights);
+  std::vector<Seen> seen(4 * environment_lights);
   const int n = grid.resolution;
   for (const BrightPieces::Piece& piece : bright.pieces) {
     if (shadow_hits[piece.ray].hit) continue;

@@ -52,11 +52,12 @@ Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, st
   const Vec3 wo = options.wo.normalized();
   Convolution result;
   std::optional<Frame> record, shading;
+  const LookupOptions lookup{options.convolution, options.interpolation};
   if (!options.normal) {
-    result = reflect(table, radiance, wo, options.convolution);
+    result = reflect(table, radiance, wo, lookup);
   } else {
     const Tilt tilt = capture_tilt(captures, k, *options.normal);
-    result = reflect_tilted(table, radiance, wo, tilt, options.tilt_mode, options.convolution);
+    result = reflect_tilted(table, radiance, wo, tilt, options.tilt_mode, lookup);
     if (options.tilt_mode != TiltCompensation::none) {
       record = captures.frame(k);
       shading = tilted_frame(*record, tilt);
@@ -65,49 +66,53 @@ Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, st
   const auto lights = captures.lights_of(k);
   if (lights.empty()) return result;
   // The entries around wo, read only when the lights take f from the table.
-  const auto taps =
-      options.light_brdf ? std::array<TableTap, 4>{} : table_taps(table.wo_resolution, wo);
+  const auto taps = options.light_brdf ? std::array<TableTap, 4>{}
+                                       : lookup_taps(table, wo, options.interpolation);
   const int table_channels = table.trees.shape().channels;
   add_lights(lights, record, shading, wo, options.light_brdf, result,
              [&](const Vec3& wi, Color& f, Color& error) {
                const Vec2 uv = cosine_hemisphere_to_square(wi);
                for (const TableTap& tap : taps) {
+                 if (!tap.reads_anything()) continue;
                  const PackedTreeView entry = table.entry(tap.i, tap.j);
                  const LeafQuadrant leaf = find_leaf(entry, uv.x(), uv.y());
-                 for (int c = 0; c < 3; ++c) {
-                   const int channel = std::min(c, table_channels - 1);
-                   f[c] += tap.weight * entry.value(leaf.node, 0, channel, leaf.quadrant);
-                   error[c] += tap.weight * entry.largest_deviation_bound(
-                                                leaf.node, channel, leaf.quadrant, leaf.level);
-                 }
+                 for (int g = 0; g < (tap.reads_derivatives() ? 3 : 1); ++g)
+                   for (int c = 0; c < 3; ++c) {
+                     const int channel = std::min(c, table_channels - 1);
+                     f[c] += tap.weights[g] * entry.value(leaf.node, g, channel, leaf.quadrant);
+                     error[c] += std::abs(tap.weights[g]) *
+                                 entry.largest_deviation_bound(leaf.node, g, channel, leaf.quadrant,
+                                                               leaf.level);
+                   }
                }
              });
   return result;
 }
 
-DenseLookup dense_lookup(const BrdfTableView& table, const Vec3& wo) {
+DenseLookup dense_lookup(const BrdfTableView& table, const Vec3& wo,
+                         WoInterpolation interpolation) {
   DenseLookup lookup;
   lookup.wo = wo.normalized();
-  for (const TableTap& tap : table_taps(table.wo_resolution, lookup.wo))
-    lookup.entries.push_back({tap.weight, reconstruct(table.entry(tap.i, tap.j))});
+  for (const TableTap& tap : lookup_taps(table, lookup.wo, interpolation))
+    if (tap.reads_anything())
+      lookup.entries.push_back(combine_groups(reconstruct(table.entry(tap.i, tap.j)), tap.weights));
   return lookup;
 }
 
 Convolution shade_dense(const DenseLookup& table, const Grid& radiance,
                         std::span<const DirectionalLight> lights, const Brdf* light_brdf) {
   Convolution result;
-  for (const auto& [weight, entry] : table.entries) {
-    if (weight == 0) continue;
+  for (const Grid& entry : table.entries) {
     const Rgb d = dense_convolve_simd(entry, radiance);
     for (int c = 0; c < 3; ++c)
-      result.value[c] += float(weight * std::numbers::pi * d[c]);
+      result.value[c] += float(std::numbers::pi * d[c]);
   }
   add_lights(lights, std::nullopt, std::nullopt, table.wo, light_brdf, result,
              [&](const Vec3& wi, Color& f, Color&) {
-               for (const auto& [weight, entry] : table.entries) {
+               for (const Grid& entry : table.entries) {
                  const auto [x, y] = cosine_hemisphere_texel(wi, entry.resolution);
                  for (int c = 0; c < 3; ++c)
-                   f[c] += weight * entry.at(0, std::min(c, entry.channels - 1), x, y);
+                   f[c] += entry.at(0, std::min(c, entry.channels - 1), x, y);
                }
              });
   return result;

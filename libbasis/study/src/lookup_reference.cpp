@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "basis/brdf/brdf_table.h"
+#include "basis/brdf/table_lookup.h"
 #include "basis/core/dense.h"
 #include "basis/core/hemisphere.h"
 #include "basis/io/image_file.h"
@@ -31,7 +32,7 @@ CaptureInputs open_capture_inputs(const CaptureRecipe& recipe) {
 
 std::vector<Rgb> reference_lookups(const QtFile& table_file, const QtFile& captures_file,
                                    const Vec3& wo, const Brdf* light_brdf,
-                                   const TaskControl& control) {
+                                   WoInterpolation interpolation, const TaskControl& control) {
   const BrdfTableView table = table_file.brdf_table();
   const CaptureSetView captures = captures_file.captures();
   const BrdfSpec spec = table_brdf(table_file);
@@ -41,15 +42,17 @@ std::vector<Rgb> reference_lookups(const QtFile& table_file, const QtFile& captu
                                 std::to_string(table.trees.shape().resolution) + " and " +
                                 std::to_string(recipe.options.resolution) + ")");
   const CaptureInputs inputs = open_capture_inputs(recipe);
-  // The four entries around wo, as the lookup weighs them.
+  // The entries around wo re-tabulated (with their derivatives over wo when the table has
+  // them), each combined as the lookup weighs its groups.
   BrdfTableOptions options;
   options.wo_resolution = table.wo_resolution;
   options.wi_resolution = table.trees.shape().resolution;
-  std::vector<std::pair<double, Grid>> entries;
-  for (const TableTap& tap : table_taps(table.wo_resolution, wo))
-    entries.emplace_back(
-        tap.weight,
-        tabulate_entry(spec.brdf, table_outgoing(tap.i, tap.j, table.wo_resolution), options));
+  options.wo_derivatives = table.has_wo_derivatives();
+  std::vector<Grid> entries;
+  for (const TableTap& tap : lookup_taps(table, wo, interpolation))
+    if (tap.reads_anything())
+      entries.push_back(
+          combine_groups(tabulate_table_entry(spec.brdf, tap.i, tap.j, options), tap.weights));
   // The capture's own record of whether it kept its lights apart.
   CaptureOptions capture_options = recipe.options;
   capture_options.compact_lights = captures.light_offsets.empty()
@@ -62,10 +65,10 @@ std::vector<Rgb> reference_lookups(const QtFile& table_file, const QtFile& captu
     const Capture c = capture(inputs.environment, inputs.scene.get(), captures.positions[k],
                               captures.frame(k), capture_options, k);
     Rgb sum{0, 0, 0};
-    for (const auto& [weight, entry] : entries) {
+    for (const Grid& entry : entries) {
       const Rgb d = dense_convolve_naive(entry, c.texels);
       for (int ch = 0; ch < 3; ++ch)
-        sum[ch] += float(weight * std::numbers::pi * d[ch]);
+        sum[ch] += float(std::numbers::pi * d[ch]);
     }
     // Directional lights: f at the light (the BRDF itself, or the entries' texels there).
     for (const DirectionalLight& light : c.lights) {
@@ -74,10 +77,10 @@ std::vector<Rgb> reference_lookups(const QtFile& table_file, const QtFile& captu
       if (light_brdf) {
         f = evaluate(*light_brdf, wi, wo);
       } else {
-        for (const auto& [weight, entry] : entries) {
+        for (const Grid& entry : entries) {
           const auto [x, y] = cosine_hemisphere_texel(wi, entry.resolution);
           for (int ch = 0; ch < 3; ++ch)
-            f[ch] += weight * entry.at(0, std::min(ch, entry.channels - 1), x, y);
+            f[ch] += entry.at(0, std::min(ch, entry.channels - 1), x, y);
         }
       }
       for (int ch = 0; ch < 3; ++ch)

@@ -18,9 +18,11 @@
 namespace basis {
 
 // The format version this build writes and the newest it reads. Version 2 added the capture
-// sets' directional lights, version 3 packed trees (packed_tree.h). Versions 1 and 2 still
-// load: their float trees are packed on loading, with largest-deviation (linf) bounds.
-inline constexpr std::uint32_t kQtFormatVersion = 3;
+// sets' directional lights, version 3 packed trees (packed_tree.h), version 4 bounds for more
+// than one channel group (the derivatives over the outgoing direction that tables hold).
+// Version 3 files load as they are; versions 1 and 2 too, their float trees packed on loading
+// with largest-deviation (linf) bounds.
+inline constexpr std::uint32_t kQtFormatVersion = 4;
 
 // Limits checked before anything is allocated from a file's claims.
 inline constexpr std::uint64_t kQtMaxFileBytes = (std::uint64_t(1) << 31) - 1;  // FlatBuffers

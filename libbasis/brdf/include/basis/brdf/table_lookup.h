@@ -3,20 +3,35 @@
 // frame the radiance was recorded in (rotation compensation).
 #pragma once
 
+#include <array>
+
 #include "basis/brdf/brdf_table.h"
 #include "basis/core/convolution.h"
 #include "basis/core/tilt.h"
 
 namespace basis {
 
+struct LookupOptions {
+  // Options of every convolution (an accuracy target).
+  ConvolutionOptions convolution;
+  // Between entries: Hermite when the table holds derivatives over wo (bilinear otherwise), or
+  // bilinear whatever the table holds.
+  WoInterpolation interpolation = WoInterpolation::hermite;
+};
+
+// The entries a lookup at wo reads in this table and their weights: Hermite's when asked for
+// and the table holds derivatives over wo, else bilinear ones.
+std::array<TableTap, 4> lookup_taps(const BrdfTableView& table, const Vec3& wo,
+                                    WoInterpolation interpolation);
+
 // Reflected radiance Lo(wo) = integral of f(wi, wo) L(wi) cos(theta_i) dwi (pi included) for
-// a unit wo with wo.z >= 0 in the table's frame: the four entries around wo in the parabolic
-// grid convolved with the radiance tree, results interpolated bilinearly (section 2.4). The
-// bound interpolates the entries' bounds: it covers the trees against their texels, not the
-// BRDF's variation between entries. `options` (an accuracy target) apply to each convolution.
+// a unit wo with wo.z >= 0 in the table's frame: the entries around wo in the parabolic grid
+// convolved with the radiance tree, each in one descent with its groups weighted as the
+// interpolation says (lookup_taps). The bound sums the entries' weighted bounds: it covers the
+// trees against their texels, not the BRDF's variation between entries.
 // Throws std::invalid_argument for wo below the horizon.
 Convolution reflect(const BrdfTableView& table, const PackedTreeView& radiance, const Vec3& wo,
-                    const ConvolutionOptions& options = {});
+                    const LookupOptions& options = {});
 
 // How reflect_tilted accounts for a tilt of the surface against the record's frame.
 enum class TiltCompensation {
@@ -28,10 +43,10 @@ enum class TiltCompensation {
 
 // Reflected radiance at a surface tilted by `tilt` against the frame `radiance` was recorded
 // in; wo_shading is in the tilted (shading) frame. The bound is that of the re-parametrised
-// term; the compensation itself is a first-order estimate. Compensation needs a table with
-// tilt derivatives (std::invalid_argument otherwise).
+// term; the compensation itself is a first-order estimate, interpolated bilinearly between
+// entries. Compensation needs a table with tilt derivatives (std::invalid_argument otherwise).
 Convolution reflect_tilted(const BrdfTableView& table, const PackedTreeView& radiance,
                            const Vec3& wo_shading, const Tilt& tilt, TiltCompensation mode,
-                           const ConvolutionOptions& options = {});
+                           const LookupOptions& options = {});
 
 }  // namespace basis

@@ -77,6 +77,19 @@ Convolution convolve(const PackedTreeView& a, const PackedTreeView& b,
 Convolution convolve_scalar(const PackedTreeView& a, const PackedTreeView& b,
                             const ConvolutionOptions& options = {});
 
+// The integral over [0,1]^2 of (sum_g weights[g] a_g) * b: groups 0 .. weights.size() - 1 of a,
+// combined with the weights into one function, against group 0 of b, in one descent. The bound
+// is convolve()'s for that function, whose RMS (and largest) deviations are at most
+// sum_g |weights[g]| times the groups'. Needs bounds for every weighted group (weights.size()
+// from 1 to a's bounded_groups; std::invalid_argument otherwise). Used by table lookups that
+// interpolate over wo with the entries' derivatives (table_lookup.h).
+Convolution convolve_weighted(const PackedTreeView& a, std::span<const float> weights,
+                              const PackedTreeView& b, const ConvolutionOptions& options = {});
+// Portable scalar implementation, the reference for the SIMD path.
+Convolution convolve_weighted_scalar(const PackedTreeView& a, std::span<const float> weights,
+                                     const PackedTreeView& b,
+                                     const ConvolutionOptions& options = {});
+
 // Each channel group of packed tree a against group 0 of b in one descent (see the float
 // version); the bound is convolve()'s, for group 0. Descends to the leaves.
 GroupConvolution convolve_groups(const PackedTreeView& a, const PackedTreeView& b);

@@ -37,6 +37,10 @@ struct Grid {
 // averages, all groups). Throws std::invalid_argument otherwise.
 Grid downsample(const Grid& grid, int resolution);
 
+// The grid's groups combined into one: sum over g < weights.size() of weights[g] times group g
+// (std::invalid_argument when the grid has fewer groups).
+Grid combine_groups(const Grid& grid, std::span<const double> weights);
+
 // True when no value is NaN or infinite.
 bool all_finite(std::span<const float> values);
 

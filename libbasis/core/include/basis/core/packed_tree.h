@@ -15,7 +15,7 @@
 
 namespace basis {
 
-// What the bounds of a packed tree bound, per quadrant and channel of group 0:
+// What the bounds of a packed tree bound, per quadrant and channel of each bounded group:
 //   l2: the RMS deviation of the texels under the quadrant from its packed value;
 //   linf: the largest deviation, |texel - packed value| for every texel under it.
 // Both bound the RMS deviation; an l2 bound times sqrt(texels under the quadrant) bounds the
@@ -25,12 +25,13 @@ enum class BoundKind : std::uint8_t { l2 = 0, linf = 1 };
 struct PackedShape {
   int resolution = 0;  // N of the grid the tree was projected from (2..512, a power of two)
   int channels = 1;    // 1 or 3
-  int groups = 1;      // channel groups; bounds are group 0's
+  int groups = 1;      // channel groups
   BoundKind bounds = BoundKind::l2;
+  int bounded_groups = 1;  // groups 0 .. bounded_groups - 1 carry bounds (1..groups)
 
   // 32-bit words per node: the link, the half-float values (groups x channels x 4 quadrants)
-  // and the bound codes (channels x 4 bytes).
-  int words_per_node() const { return 1 + 2 * groups * channels + channels; }
+  // and the bound codes (bounded_groups x channels x 4 bytes).
+  int words_per_node() const { return 1 + 2 * groups * channels + bounded_groups * channels; }
   bool operator==(const PackedShape&) const = default;
 };
 
@@ -81,16 +82,23 @@ class PackedTreeView {
                node(n) + 1)[(g * shape_.channels + c) * 4 + q]) *
            scales_.value_scale;
   }
-  // Bound code and bound of group 0, channel c over quadrant q of node n (see BoundKind).
-  std::uint8_t bound_code(int n, int c, int q) const {
-    return reinterpret_cast<const std::uint8_t*>(node(n) + 1 +
-                                                 2 * shape_.groups * shape_.channels)[c * 4 + q];
+  // Bound code and bound of group g (< bounded_groups), channel c over quadrant q of node n
+  // (see BoundKind); without a group, group 0's.
+  std::uint8_t bound_code(int n, int g, int c, int q) const {
+    return reinterpret_cast<const std::uint8_t*>(
+        node(n) + 1 + 2 * shape_.groups * shape_.channels)[(g * shape_.channels + c) * 4 + q];
   }
-  float bound(int n, int c, int q) const {
-    return bound_code_value(bound_code(n, c, q)) * scales_.bound_scale;
+  std::uint8_t bound_code(int n, int c, int q) const { return bound_code(n, 0, c, q); }
+  float bound(int n, int g, int c, int q) const {
+    return bound_code_value(bound_code(n, g, c, q)) * scales_.bound_scale;
   }
-  // Bound on |texel - value| for every texel of a quadrant at `level` (1 = a root quadrant).
-  float largest_deviation_bound(int n, int c, int q, int level) const;
+  float bound(int n, int c, int q) const { return bound(n, 0, c, q); }
+  // Bound on |texel - value| for every texel of a quadrant at `level` (1 = a root quadrant),
+  // group g (group 0 without one).
+  float largest_deviation_bound(int n, int g, int c, int q, int level) const;
+  float largest_deviation_bound(int n, int c, int q, int level) const {
+    return largest_deviation_bound(n, 0, c, q, level);
+  }
 
  private:
   PackedShape shape_;
@@ -111,7 +119,8 @@ struct PackedTree {
 // The packed form of a tree: nodes breadth first, values rounded to the nearest half after
 // scaling, and bounds rounded up after adding what that rounding moved each value, so that
 // they hold for the packed values: l2 from tree.deviations (tree.errors when there are none),
-// linf from tree.errors.
-PackedTree pack(const Quadtree& tree, BoundKind bounds = BoundKind::l2);
+// linf from tree.errors. Bounds are kept for the first bounded_groups groups (at most the
+// tree's bounded groups; std::invalid_argument otherwise).
+PackedTree pack(const Quadtree& tree, BoundKind bounds = BoundKind::l2, int bounded_groups = 1);
 
 }  // namespace basis

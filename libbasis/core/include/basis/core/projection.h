@@ -23,7 +23,8 @@ struct ProjectionOptions {
   int max_depth = 0;  // finest quadrant level, 1..log2(N); 0 means log2(N), the texels
   // Also refine where another channel group's bound exceeds group_tolerance_scale times group
   // 0's tolerance of the same channel (for groups that must stay accurate, such as the tilt
-  // derivatives, whose contribution is scaled by a small tilt).
+  // derivatives, whose contribution is scaled by a small tilt). The tree then stores every
+  // group's bounds (QuadtreeShape::bounded_groups), else group 0's.
   bool cut_on_all_groups = false;
   double group_tolerance_scale = 10;
   // How the bound on |texel - average| is computed:
@@ -36,6 +37,11 @@ struct ProjectionOptions {
   // Added to each channel's mean before a relative tolerance is applied: energy that belongs
   // to the function but lies outside the grid (a capture's directional lights).
   Color extra_mean{0, 0, 0};
+  // Locally relative tolerance (relative mode, when positive): a quadrant is refined while its
+  // bound exceeds tolerance x max(|its value|, local_floor x |mean|), so that dim parts of a
+  // function (a lobe's tails) are as accurate relative to themselves as bright ones, down to
+  // the floor.
+  double local_floor = 0;
 };
 
 // Builds and cuts quadtrees: averages, the bounds the cut uses, and the RMS deviation of every
@@ -63,9 +69,9 @@ class QuadtreeProjector {
   const float* values(const Grid& grid, int k, int p) const;
   float* scratch_values(int k, int p) { return value_planes_[std::size_t(k) * planes_ + p]; }
   float* errors(int k, int p) { return error_planes_[std::size_t(k) * bounded_ + p]; }
-  // RMS deviation of the texels under each cell of level k from its stored average, channel c
-  // of group 0, rounded up (levels 0 .. log2(N) - 1).
-  float* deviations(int k, int c) { return deviation_planes_[std::size_t(k) * channels_ + c]; }
+  // RMS deviation of the texels under each cell of level k from its stored average, bounded
+  // plane p, rounded up (levels 0 .. log2(N) - 1).
+  float* deviations(int k, int p) { return deviation_planes_[std::size_t(k) * bounded_ + p]; }
   void build_deviations(const Grid& grid);
   // Exact bounds: smallest (0) and largest (1) texel under each cell of level k, plane p.
   float* extremes(int k, int p, int which) {
@@ -87,6 +93,7 @@ class QuadtreeProjector {
   std::vector<float*> deviation_planes_;
   std::vector<double> moments_[4];  // means and sums of squared deviations of two levels
   std::vector<PendingCell> pending_;
+  std::vector<float> local_tolerance_;  // per bounded plane, empty unless locally relative
 };
 
 // Convenience wrapper around a temporary QuadtreeProjector.

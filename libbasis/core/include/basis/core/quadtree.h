@@ -23,14 +23,18 @@ struct alignas(16) Quad {
 //   quad 0: the child links as int32 lanes; 0 marks a leaf quadrant, otherwise the index of the
 //           child node, always greater than n (nodes are stored in depth-first pre-order);
 //   quad 1 + g * channels + c: the quadrants' averages of group g, channel c.
-// Errors: quad n * channels + c bounds |texel - quadrant average| of group 0, channel c over
-// every texel under each quadrant, whether the quadrant is a leaf or not.
+// Errors: quad (n * bounded_groups + g) * channels + c bounds |texel - quadrant average| of
+// group g, channel c over every texel under each quadrant, whether the quadrant is a leaf or
+// not, for the first bounded_groups groups.
 struct QuadtreeShape {
-  int resolution = 0;  // N of the grid the tree was projected from (2..512, a power of two)
-  int channels = 1;    // 1 or 3
-  int groups = 1;      // channel groups; group 0 decides where the tree is cut
+  int resolution = 0;      // N of the grid the tree was projected from (2..512, a power of two)
+  int channels = 1;        // 1 or 3
+  int groups = 1;          // channel groups; group 0 decides where the tree is cut
+  int bounded_groups = 1;  // groups with error bounds (1..groups), group 0 first
 
   int stride() const { return 1 + groups * channels; }
+  // Quads of errors per node.
+  int error_stride() const { return bounded_groups * channels; }
   bool operator==(const QuadtreeShape&) const = default;
 };
 
@@ -58,7 +62,12 @@ class QuadtreeView {
   }
   // Bound on |texel - value| for group 0, channel c over quadrant q of node n.
   float error(int node, int channel, int quadrant) const {
-    return errors_[std::size_t(node) * shape_.channels + channel].lane[quadrant];
+    return error(node, 0, channel, quadrant);
+  }
+  // The same for bounded group g.
+  float error(int node, int group, int channel, int quadrant) const {
+    return errors_[std::size_t(node) * shape_.error_stride() + group * shape_.channels + channel]
+        .lane[quadrant];
   }
 
  private:
@@ -68,8 +77,9 @@ class QuadtreeView {
 };
 
 // An owning quadtree. `deviations`, laid out like `errors`, holds for each quadrant the RMS
-// deviation of group 0's texels from the quadrant's value, rounded up (a bound in the L2 sense,
-// at most the error bound); projection fills it, and it may be empty for trees made otherwise.
+// deviation of each bounded group's texels from the quadrant's value, rounded up (a bound in the
+// L2 sense, at most the error bound); projection fills it, and it may be empty for trees made
+// otherwise.
 struct Quadtree {
   QuadtreeShape shape;
   std::vector<Quad> nodes;

@@ -45,6 +45,11 @@ struct Capture {
   CaptureStats stats;
 };
 
+// Compact lights wider than this (their radius, Environment::CompactLight) are kept apart as
+// the four quarters of their extent around their centre, each with its own energy and
+// direction, so that a sharp lobe sees the light's spread rather than a point at its centre.
+inline constexpr double kSplitLightRadiusDegrees = 1;
+
 // The capture at `position` with local frame `frame`, in three phases:
 //   strata: for every stratum, a ray through its jittered point; an escaping ray contributes
 //           the environment's smooth part averaged over the stratum's footprint, a hit its
@@ -52,8 +57,8 @@ struct Capture {
 //   bright pixels: each bright environment pixel is split into bright_subsamples^2 pieces, one
 //           shadow ray towards the pixel's centre;
 //   deposits: if that ray escapes, each piece above the horizon adds its energy exactly to the
-//           texel it falls in, or, for a compact light kept apart, to that light's energy and
-//           energy-weighted direction.
+//           texel it falls in, or, for a compact light kept apart, to that light's (or its
+//           quarter's) energy and energy-weighted direction.
 // With no scene nothing occludes. `index` decorrelates jitter between points. Deterministic.
 // Throws std::overflow_error when the radiance overflows the float texels.
 Capture capture(const Environment& environment, const RayScene* scene, const Vec3& position,

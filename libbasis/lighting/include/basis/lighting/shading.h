@@ -27,6 +27,8 @@ struct ShadingOptions {
   const Brdf* light_brdf = nullptr;
   // Options of every convolution (an accuracy target).
   ConvolutionOptions convolution;
+  // How lookups between table entries interpolate (table_lookup.h).
+  WoInterpolation interpolation = WoInterpolation::hermite;
 };
 
 // The tilt of a surface of normal `normal` (world) against capture k's frame.
@@ -40,13 +42,15 @@ Tilt capture_tilt(const CaptureSetView& captures, std::size_t k, const Vec3& nor
 Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, std::size_t k,
                   const ShadingOptions& options);
 
-// The dense counterpart of an untilted lookup at wo, for comparisons: the four table entries
-// around wo reconstructed at full resolution with their bilinear weights.
+// The dense counterpart of an untilted lookup at wo, for comparisons: each table entry the
+// lookup reads, reconstructed at full resolution with its groups weighted as the lookup weighs
+// them (one grid per entry).
 struct DenseLookup {
   Vec3 wo{0, 0, 1};
-  std::vector<std::pair<double, Grid>> entries;
+  std::vector<Grid> entries;
 };
-DenseLookup dense_lookup(const BrdfTableView& table, const Vec3& wo);
+DenseLookup dense_lookup(const BrdfTableView& table, const Vec3& wo,
+                         WoInterpolation interpolation = WoInterpolation::hermite);
 
 // What shade() returns for an untilted lookup, computed with vectorised dense products of the
 // entries' and the capture's full-resolution grids (the trees' reconstructions give the same

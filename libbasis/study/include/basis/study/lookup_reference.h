@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "basis/brdf/brdf.h"
+#include "basis/brdf/brdf_table.h"
 #include "basis/core/color.h"
 #include "basis/core/task.h"
 #include "basis/core/vector.h"
@@ -25,15 +26,18 @@ struct CaptureInputs {
 CaptureInputs open_capture_inputs(const CaptureRecipe& recipe);
 
 // Reflected radiance towards wo (local frame, untilted) at every capture of a capture set,
-// without trees: the table's four entries around wo re-tabulated at its resolution from the
-// spec it stores, each capture re-traced at full resolution from its recipe, the texel grids
-// multiplied texel by texel and interpolated as the lookup interpolates, plus f E cos for each
-// light kept apart (f from `light_brdf` when given, else from the re-tabulated entries' texels).
+// without trees: the table's entries around wo re-tabulated at its resolution from the spec it
+// stores (with their derivatives over wo when the table has them), each capture re-traced at
+// full resolution from its recipe, the texel grids multiplied texel by texel and interpolated as
+// the lookup interpolates (`interpolation`, as in table_lookup.h), plus f E cos for each light
+// kept apart (f from `light_brdf` when given, else from the re-tabulated entries' texels).
 // The value of a lookup differs from this by at most its certified bound. Throws FileError when
 // the files do not say how they were made, std::invalid_argument for tables and captures of
 // different resolutions. Captures run in parallel; progress is reported per capture and the
 // work stops (Cancelled) when asked.
 std::vector<Rgb> reference_lookups(const QtFile& table, const QtFile& captures, const Vec3& wo,
-                                   const Brdf* light_brdf, const TaskControl& control = {});
+                                   const Brdf* light_brdf,
+                                   WoInterpolation interpolation = WoInterpolation::hermite,
+                                   const TaskControl& control = {});
 
 }  // namespace basis
