@@ -112,7 +112,9 @@ std::string load_error(std::span<const std::byte> bytes) {
 // The bytes of a tree or a capture set written with the schema alone, without the library
 // writer's checks (as a damaged or foreign writer could), at the current version.
 std::vector<std::byte> unchecked_file(const TreeSetView& trees, const CaptureSetView* captures,
-                                      std::uint8_t bound_kind = 0) {
+                                      std::uint8_t bound_kind = 0,
+                                      std::uint32_t version = kQtFormatVersion,
+                                      int bounded_groups = 1) {
   flatbuffers::FlatBufferBuilder b;
   auto structs = [&]<typename F, typename T>(std::span<const T> v) {
     return b.CreateVectorOfStructs(reinterpret_cast<const F*>(v.data()), v.size());
@@ -126,6 +128,7 @@ std::vector<std::byte> unchecked_file(const TreeSetView& trees, const CaptureSet
   set.add_groups(s.groups);
   set.add_tolerance(0.05);
   set.add_bounds(format::BoundKind(bound_kind));
+  if (version >= 4) set.add_bounded_groups(bounded_groups);  // version 3 had no such field
   set.add_packed_extents(extents);
   set.add_words(words);
   const auto set_offset = set.Finish();
@@ -137,9 +140,9 @@ std::vector<std::byte> unchecked_file(const TreeSetView& trees, const CaptureSet
         structs.operator()<format::Vec3>(captures->tangents),
         structs.operator()<format::Light>(captures->lights),
         b.CreateVector(captures->light_offsets.data(), captures->light_offsets.size()));
-  const auto root = format::CreateFile(b, kQtFormatVersion,
-                                       captures ? format::Kind::CaptureSet : format::Kind::Tree,
-                                       format::Mapping::CosineConcentric, set_offset, 0, info);
+  const auto root =
+      format::CreateFile(b, version, captures ? format::Kind::CaptureSet : format::Kind::Tree,
+                         format::Mapping::CosineConcentric, set_offset, 0, info);
   format::FinishFileBuffer(b, root);
   const auto* data = reinterpret_cast<const std::byte*>(b.GetBufferPointer());
   return {data, data + b.GetSize()};
@@ -488,6 +491,27 @@ TEST(QtFormat, SemanticViolationsAreNamedAndNeverWritten) {
   EXPECT_EQ(
       load_error(unchecked_file(TreeSetView(good.shape, {&extent, 1}, good.words), nullptr, 7)),
       "input.qt: trees: unknown bound kind 7");
+  // Bounds claimed for more groups than the trees hold, or none.
+  for (const int bounded : {0, 2})
+    EXPECT_NE(load_error(unchecked_file(TreeSetView(good.shape, {&extent, 1}, good.words), nullptr,
+                                        0, kQtFormatVersion, bounded))
+                  .find("bounds for " + std::to_string(bounded) + " of 1 channel groups"),
+              std::string::npos)
+        << bounded;
+}
+
+// Version 3 files (packed trees, bounds for group 0 only, no bounded_groups field) load as they
+// are, in place, and convolve as they did.
+TEST(QtFormat, Version3FilesLoadInPlace) {
+  const PackedTree tree = sample_tree(32, 3, 2);
+  const TreeExtent extent{0, std::uint32_t(tree.node_count()), tree.scales};
+  const QtFile file = QtFile::from_bytes(
+      unchecked_file(TreeSetView(tree.shape, {&extent, 1}, tree.words), nullptr, 0, 3), "v3.qt");
+  EXPECT_EQ(file.format_version(), 3u);
+  EXPECT_TRUE(file.zero_copy());
+  EXPECT_TRUE(same_words(file.tree().words(), tree.words));
+  const PackedTree light = sample_tree(16, 1, 0);
+  EXPECT_EQ(convolve(file.tree(), light.view()).value, convolve(tree.view(), light.view()).value);
 }
 
 TEST(QtFormat, WritesAreAtomic) {

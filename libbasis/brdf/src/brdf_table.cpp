@@ -101,6 +101,9 @@ Grid tabulate_table_entry(const Brdf& brdf, int i, int j, const BrdfTableOptions
   const double per_step = step / (2 * d);
   const int channels = channel_count(brdf);
   Grid grid(options.wi_resolution, channels, 3);
+  // The derivatives are sharper than f: they decide convergence too.
+  SupersampleOptions sampling = options.supersampling;
+  sampling.checked_groups = 3;
   average_over_texels(
       grid,
       [&](double u, double v, double* out, bool all_groups) {
@@ -117,7 +120,7 @@ Grid tabulate_table_entry(const Brdf& brdf, int i, int j, const BrdfTableOptions
           out[2 * channels + c] = (e[2][c] - e[3][c]) * per_step;
         }
       },
-      options.supersampling, near_mirror(wo, options.wi_resolution));
+      sampling, near_mirror(wo, options.wi_resolution));
   return grid;
 }
 

@@ -1,11 +1,18 @@
 // BRDF tables against independent numeric integration: directional albedo of every model
-// through the table's four-entry lookup, at and between entries, up to 80 degrees.
+// through the table's lookup, at and between entries, up to 80 degrees; partial and symmetric
+// tabulation against tabulating every entry; the Hermite weights against polynomials they must
+// reproduce; the derivatives over wo against finite differences of separate tabulations; the
+// lobe width against a closed form.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <numbers>
+#include <random>
 #include <vector>
 
 #include "basis/brdf/table_lookup.h"
+#include "basis/core/hemisphere.h"
+#include "basis/core/parabolic.h"
 #include "basis/core/projection.h"
 #include "support/brdf_reference.h"
 
@@ -108,6 +115,126 @@ TEST(PartialTable, MatchesTheFullTableWhereItsDirectionsRead) {
     ++zero;
   }
   EXPECT_GT(zero, 60);  // most of the 81 entries were never tabulated
+}
+
+// Tabulating one entry per orbit of the BRDF's symmetries and moving it gives the table that
+// tabulating every entry gives, derivatives over wo and tilt derivatives included (the moved
+// grids' quadrature sees the same samples mirrored, so they agree to the quadrature's rounding).
+TEST(SymmetricTabulation, MatchesTabulatingEveryEntry) {
+  for (const Brdf& brdf : {Brdf{Phong{{0.3, 0.2, 0.1}, {0.5, 0.5, 0.5}, 40}},
+                           Brdf{Ggx{{0.1, 0.1, 0.1}, {0.95, 0.64, 0.54}, 0.15}}}) {
+    EXPECT_EQ(brdf_symmetries(brdf).size(), 8u);
+    BrdfTableOptions options;
+    options.wo_resolution = 8;  // even: the grid's centre is no entry
+    options.wi_resolution = 16;
+    options.projection = {.tolerance = 0};
+    options.use_symmetries = false;
+    const BrdfTable every = tabulate_brdf(brdf, options);
+    options.use_symmetries = true;
+    const BrdfTable moved = tabulate_brdf(brdf, options);
+    for (const auto& [a, b] : {std::pair{every.trees.view(), moved.trees.view()},
+                               std::pair{every.tilt.view(), moved.tilt.view()}})
+      for (std::size_t k = 0; k < a.size(); ++k) {
+        const Grid ga = reconstruct(a.tree(k)), gb = reconstruct(b.tree(k));
+        ASSERT_EQ(ga.texels.size(), gb.texels.size());
+        double largest = 0;
+        for (const float v : ga.texels)
+          largest = std::max(largest, double(std::abs(v)));
+        for (std::size_t t = 0; t < ga.texels.size(); ++t)
+          ASSERT_NEAR(ga.texels[t], gb.texels[t], 3e-3 * largest) << "tree " << k << " texel " << t;
+      }
+  }
+}
+
+// Hermite weights reproduce values, per-step derivatives and their combination exactly for
+// functions cubic along s plus cubic along t plus bilinear (whose cross derivative the weights'
+// estimate gets right); at an entry only that entry's value is read.
+TEST(HermiteTaps, ReproduceCubicsAlongEachAxis) {
+  const int m = 17;
+  const double h = 2.0 / (m - 1);
+  auto f = [](double s, double t) {
+    return 0.3 + s - 2 * s * s + 0.7 * s * s * s + 0.4 * t + 1.5 * t * t * t - 0.8 * s * t;
+  };
+  auto fs = [](double s, double t) { return 1 - 4 * s + 2.1 * s * s - 0.8 * t; };
+  auto ft = [](double s, double t) { return 0.4 + 4.5 * t * t - 0.8 * s; };
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> unit(-0.6, 0.6);
+  for (int k = 0; k < 200; ++k) {
+    const Vec2 st(unit(rng), unit(rng));
+    double sum = 0, value_weights = 0;
+    for (const TableTap& tap :
+         table_taps(m, parabolic_to_hemisphere(st), WoInterpolation::hermite)) {
+      const double s = -1 + h * tap.i, t = -1 + h * tap.j;
+      sum +=
+          tap.weights[0] * f(s, t) + tap.weights[1] * h * fs(s, t) + tap.weights[2] * h * ft(s, t);
+      value_weights += tap.weights[0];
+    }
+    EXPECT_NEAR(sum, f(st.x(), st.y()), 1e-9) << st.transpose();
+    EXPECT_NEAR(value_weights, 1, 1e-12);
+  }
+  const Vec3 at_entry = table_outgoing(5, 11, m);
+  for (const TableTap& tap : table_taps(m, at_entry, WoInterpolation::hermite)) {
+    const bool it = tap.i == 5 && tap.j == 11;
+    EXPECT_NEAR(tap.weights[0], it ? 1 : 0, 1e-9);
+    EXPECT_NEAR(tap.weights[1], 0, 1e-9);
+    EXPECT_NEAR(tap.weights[2], 0, 1e-9);
+  }
+}
+
+// Groups 1 and 2 of an entry are texel averages of h df/ds and h df/dt: compared with a plain
+// midpoint rule of 24 x 24 samples per texel of the same central differences.
+TEST(WoDerivatives, AreTexelAveragesOfTheDerivativesOverWo) {
+  const Brdf brdf = Phong{{0.2, 0.2, 0.2}, {0.6, 0.6, 0.6}, 30};
+  BrdfTableOptions options;
+  options.wo_resolution = 9;
+  options.wi_resolution = 16;
+  const int n = options.wi_resolution, k = 24;
+  const double h = 2.0 / (options.wo_resolution - 1), d = 1e-5;
+  for (const auto& [i, j] : {std::pair{4, 4}, {6, 3}, {2, 7}}) {
+    const Grid entry = tabulate_table_entry(brdf, i, j, options);
+    ASSERT_EQ(entry.groups, 3);
+    const Vec2 st(-1 + h * i, -1 + h * j);
+    for (int axis = 0; axis < 2; ++axis) {
+      const Vec2 step = axis == 0 ? Vec2(d, 0) : Vec2(0, d);
+      const Vec3 plus = table_outgoing(Vec2(st + step)), minus = table_outgoing(Vec2(st - step));
+      double largest = 0;
+      for (const float v : entry.plane(1 + axis, 0))
+        largest = std::max(largest, double(std::abs(v)));
+      ASSERT_GT(largest, 0);
+      for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+          double sum = 0;
+          for (int b = 0; b < k; ++b)
+            for (int a = 0; a < k; ++a) {
+              const Vec3 wi =
+                  square_to_cosine_hemisphere({(x + (a + 0.5) / k) / n, (y + (b + 0.5) / k) / n});
+              sum += h * (evaluate(brdf, wi, plus)[0] - evaluate(brdf, wi, minus)[0]) / (2 * d);
+            }
+          ASSERT_NEAR(entry.at(1 + axis, 0, x, y), sum / (k * k), 0.01 * largest)
+              << "entry " << i << "," << j << " axis " << axis << " texel " << x << "," << y;
+        }
+    }
+  }
+}
+
+// The lobe width of normalised Phong is its half width at half maximum, acos(2^(-1/n)), over
+// the Gaussian's ratio 1.1774; Lambert has none. The default resolution follows it.
+TEST(LobeWidth, OfPhongIsItsHalfWidthOverTheGaussianRatio) {
+  for (const double n : {10.0, 40.0, 100.0, 200.0, 1000.0}) {
+    const double expected = std::acos(std::pow(2.0, -1 / n)) / 1.1774;
+    EXPECT_NEAR(lobe_width(Phong{{0.2, 0.2, 0.2}, {0.6, 0.6, 0.6}, n}), expected, 0.005 * expected)
+        << n;
+  }
+  EXPECT_TRUE(std::isinf(lobe_width(Lambert{})));
+  EXPECT_EQ(default_wo_resolution(Lambert{}), 33);
+  int previous = 0;
+  for (const double n : {10.0, 40.0, 100.0, 200.0, 1000.0, 1e5}) {
+    const int m = default_wo_resolution(Phong{{0, 0, 0}, {1, 1, 1}, n});
+    EXPECT_GE(m, previous);
+    EXPECT_EQ((m - 1) % 8, 0);
+    EXPECT_LE(m, 129);
+    previous = m;
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Models, TableAlbedo, ::testing::Range(0, int(models().size())),

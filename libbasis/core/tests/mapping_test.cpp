@@ -1,7 +1,8 @@
-// Mappings: round trips, known values, and measures checked by numeric integration against
-// analytic integrals.
+// Mappings: round trips, known values, measures checked by numeric integration against
+// analytic integrals, and the symmetries of the square that the maps commute with.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <numbers>
@@ -12,6 +13,7 @@
 #include "basis/core/hemisphere.h"
 #include "basis/core/latlong.h"
 #include "basis/core/parabolic.h"
+#include "basis/core/square_symmetry.h"
 
 namespace basis {
 namespace {
@@ -203,6 +205,82 @@ TEST(ParabolicMap, JacobianIntegratesToTwoPi) {
     }
   EXPECT_NEAR(area, 2 * kPi, 1e-4);
   EXPECT_NEAR(cosine_lobe, 2 * kPi / 11, 1e-4);
+}
+
+// A point of the square moved by a symmetry about the square's centre.
+Vec2 move_square_point(const SquareSymmetry& g, const Vec2& uv) {
+  const Vec3 c = g.apply(Vec3(2 * uv.x() - 1, 2 * uv.y() - 1, 0));
+  return {(c.x() + 1) / 2, (c.y() + 1) / 2};
+}
+
+TEST(SquareSymmetry, FormAGroupOfEight) {
+  const auto all = SquareSymmetry::all();
+  EXPECT_TRUE(all[0].is_identity());
+  for (const SquareSymmetry& a : all) {
+    EXPECT_EQ(std::abs(a.determinant()), 1);
+    for (const SquareSymmetry& b : all) {
+      // The product a b, as a matrix, is one of the eight.
+      SquareSymmetry ab;
+      for (int i = 0; i < 2; ++i)
+        for (int j = 0; j < 2; ++j)
+          ab.m[i][j] = a.m[i][0] * b.m[0][j] + a.m[i][1] * b.m[1][j];
+      EXPECT_NE(std::find(all.begin(), all.end(), ab), all.end());
+    }
+    // The inverse undoes the move of grid indices, for odd and even grids.
+    for (const int n : {7, 8})
+      for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+          const auto [x, y] = a.apply(i, j, n);
+          ASSERT_GE(std::min(x, y), 0);
+          ASSERT_LT(std::max(x, y), n);
+          EXPECT_EQ(a.inverse().apply(x, y, n), (std::array<int, 2>{i, j}));
+        }
+  }
+}
+
+TEST(SquareSymmetry, CommuteWithTheConcentricAndParabolicMaps) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> unit(0, 1);
+  for (const SquareSymmetry& g : SquareSymmetry::all())
+    for (int k = 0; k < 2000; ++k) {
+      const Vec2 uv(unit(rng), unit(rng));
+      const Vec3 moved = g.apply(square_to_cosine_hemisphere(uv));
+      EXPECT_LT((square_to_cosine_hemisphere(move_square_point(g, uv)) - moved).norm(), 1e-12);
+      const Vec2 st = hemisphere_to_parabolic(square_to_cosine_hemisphere(uv));
+      const Vec3 st_moved = g.apply(Vec3(st.x(), st.y(), 0));
+      EXPECT_LT((hemisphere_to_parabolic(moved) - Vec2(st_moved.x(), st_moved.y())).norm(), 1e-12);
+    }
+}
+
+TEST(SquareSymmetry, TransformGridMovesTheFunctionAndTurnsItsVectors) {
+  const int n = 16;
+  // Groups: a scalar function, then a vector field (its two components), over the square.
+  auto f = [](const Vec2& p) { return std::sin(3 * p.x()) + p.y() * p.y() + 0.3 * p.x() * p.y(); };
+  auto field = [](const Vec2& p) { return Vec2(std::cos(2 * p.y()) + p.x(), p.x() * p.y() - 1); };
+  Grid grid(n, 1, 3);
+  auto centre = [&](int x, int y) { return Vec2(2 * (x + 0.5) / n - 1, 2 * (y + 0.5) / n - 1); };
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      grid.at(0, 0, x, y) = float(f(centre(x, y)));
+      grid.at(1, 0, x, y) = float(field(centre(x, y)).x());
+      grid.at(2, 0, x, y) = float(field(centre(x, y)).y());
+    }
+  for (const SquareSymmetry& g : SquareSymmetry::all())
+    for (const bool axial : {false, true}) {
+      const Grid moved = transform_grid(grid, g, {1, axial});
+      const int sign = axial ? g.determinant() : 1;
+      for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+          // The moved function at p is the original at A^-1 p; vectors are turned by A.
+          const Vec2 p = centre(x, y);
+          const Vec3 q = g.inverse().apply(Vec3(p.x(), p.y(), 0));
+          const Vec2 before = field(Vec2(q.x(), q.y()));
+          const Vec3 turned = g.apply(Vec3(before.x(), before.y(), 0)) * sign;
+          EXPECT_NEAR(moved.at(0, 0, x, y), f(Vec2(q.x(), q.y())), 1e-5);
+          EXPECT_NEAR(moved.at(1, 0, x, y), turned.x(), 1e-5);
+          EXPECT_NEAR(moved.at(2, 0, x, y), turned.y(), 1e-5);
+        }
+    }
 }
 
 TEST(Frame, IdentityForPlusZ) {

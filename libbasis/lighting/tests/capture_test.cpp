@@ -186,6 +186,59 @@ TEST(Capture, CompactLightsAreFoundWithTheirEnergyAndDirection) {
         << b.column << " " << b.row;
 }
 
+// A light 2 x 2 pixels (3 degrees) wide is kept as the four quarters of its extent: their
+// energies add up to the light's, each lies on its own side of the light's centre, and a sharp
+// lobe shaded with them is closer to direct integration over the map than with one point at the
+// centre.
+TEST(Capture, WideCompactLightsAreKeptAsTheirFourQuarters) {
+  Image image(256, 128, 3);
+  for (float& p : image.pixels)
+    p = 1;
+  for (int y = 30; y < 32; ++y)
+    for (int x = 100; x < 102; ++x)
+      for (int c = 0; c < 3; ++c)
+        image.at(x, y, c) = 2e4f * float(1 + (x - 100) + 2 * (y - 30));  // uneven on purpose
+  const Environment env(image);
+  ASSERT_EQ(env.lights().size(), 1u);
+  const auto& light = env.lights()[0];
+  ASSERT_GT(light.radius, kSplitLightRadiusDegrees * std::numbers::pi / 180);
+  const Frame frame = Frame::from_normal(Vec3(0.3, 0.1, 1).normalized());
+  const Capture c =
+      capture(env, nullptr, Vec3::Zero(), frame,
+              {.resolution = 32, .compact_lights = CaptureOptions::CompactLights::apart});
+  ASSERT_EQ(c.lights.size(), 4u);
+  Color sum{0, 0, 0};
+  Vec3 centre = Vec3::Zero();
+  for (const DirectionalLight& q : c.lights) {
+    for (int ch = 0; ch < 3; ++ch)
+      sum[ch] += q.energy[ch];
+    centre += luminance(q.energy) * q.direction;
+    EXPECT_LT(angle_between(q.direction, frame.to_local(light.direction)), light.radius);
+    EXPECT_GT(angle_between(q.direction, frame.to_local(light.direction)), 0.002);
+  }
+  for (int ch = 0; ch < 3; ++ch)
+    EXPECT_NEAR(sum[ch], light.energy[ch], 0.01 * light.energy[ch]);
+  centre.normalize();
+  // f of a Phong 300 lobe aimed at the light, integrated over the light's pixels against its
+  // quarters and its centre.
+  const Phong lobe{{0, 0, 0}, {1, 1, 1}, 300};
+  const Vec3 at = frame.to_local(light.direction);
+  const Vec3 wo = Vec3(-at.x(), -at.y(), at.z()) + Vec3(0.02, 0, 0);
+  double exact = 0;
+  for (int y = 30; y < 32; ++y)
+    env.for_each_subpixel(y, 100, 102, 8, [&](int x, const Vec3& w, double dw) {
+      const Vec3 l = frame.to_local(w);
+      const double excess = image.at(x, y, 1) - 1;
+      exact += evaluate(lobe, l, wo)[1] * excess * dw * l.z();
+    });
+  double quarters = 0;
+  for (const DirectionalLight& q : c.lights)
+    quarters += evaluate(lobe, q.direction, wo)[1] * q.energy[1] * q.direction.z();
+  const double point = evaluate(lobe, centre, wo)[1] * sum[1] * centre.z();
+  EXPECT_LT(std::abs(quarters - exact), 0.5 * std::abs(point - exact))
+      << "quarters " << quarters << " point " << point << " exact " << exact;
+}
+
 TEST(Capture, LightsKeptApartCarryWhatTheTexelsWouldHold) {
   const Environment env(two_suns_and_a_patch());
   for (const Vec3& n : {Vec3(0.2, 0.1, 1).normalized(), Vec3(0.3, 0.9, 0.4).normalized()}) {

@@ -25,6 +25,10 @@ struct SupersampleOptions {
   // Groups other than 0 ride along: they are evaluated at cells down to this depth only and
   // deeper cells inherit their ancestors' estimate.
   int max_group_depth = 6;
+  // Groups whose channels decide convergence, from group 0 (1: group 0 alone). A further
+  // group's floor is floor_fraction_of_mean times the mean of its |values| (signed functions,
+  // such as derivatives, may average to zero).
+  int checked_groups = 1;
   // Texels flagged by the caller (a feature may hide between samples there) are subdivided
   // unconditionally down to this depth.
   int forced_depth = 3;
@@ -54,7 +58,8 @@ class CellRefiner {
     double* children = &scratch_[std::size_t(depth) * 10 * values_];
     double* mean = children + 4 * values_;
     double* part = children + 5 * values_;
-    const bool groups = depth + 1 <= o_.max_group_depth;
+    // Groups that decide convergence are evaluated at every depth.
+    const bool groups = checked_ == values_ || depth + 1 <= o_.max_group_depth;
     const int count = groups ? values_ : checked_;
     const double half = size / 2;
     for (int q = 0; q < 4; ++q) {
@@ -109,7 +114,7 @@ long long average_over_texels(Grid& grid, const F& f, const SupersampleOptions& 
                               const Force& force) {
   const int n = grid.resolution;
   const int values = grid.channels * grid.groups;
-  const int checked = grid.channels;  // group 0 decides convergence
+  const int checked = grid.channels * std::clamp(options.checked_groups, 1, grid.groups);
   // Pass 1: centre samples, for the channels' means.
   std::vector<double> centres(std::size_t(n) * n * values);
   std::vector<double> mean(checked, 0.0), floor(checked);
@@ -118,7 +123,7 @@ long long average_over_texels(Grid& grid, const F& f, const SupersampleOptions& 
       double* c = &centres[(std::size_t(y) * n + x) * values];
       f((x + 0.5) / n, (y + 0.5) / n, c, true);
       for (int k = 0; k < checked; ++k)
-        mean[k] += c[k] / (double(n) * n);
+        mean[k] += (k < grid.channels ? c[k] : std::abs(c[k])) / (double(n) * n);
     }
   for (int k = 0; k < checked; ++k)
     floor[k] = std::max(options.absolute_floor, options.floor_fraction_of_mean * std::abs(mean[k]));
