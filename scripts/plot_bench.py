@@ -1,7 +1,10 @@
 """Draws qtbench's charts from the numbers it wrote. Usage: plot_bench.py DIR
 DIR/results.csv -> DIR/chart.png (convolution time against error) and DIR/storage.png (bytes of
 the light's representation against error), one panel per BRDF, one row of panels per light;
-DIR/rotation.csv -> DIR/rotation.png (error against the tilt of the surface)."""
+DIR/rotation.csv -> DIR/rotation.png (error against the tilt of the surface);
+DIR/lookups.csv -> DIR/lookups.png (error of lookups against the outgoing direction's offset from
+the nearest table entry, first-version tables and bilinear against default tables and Hermite);
+DIR/summary.md also gets DIR/lookup_sources.csv as a table."""
 import csv
 import math
 import os
@@ -89,13 +92,51 @@ def rotation(path_csv, path_png):
     figure.savefig(path_png, dpi=100)
 
 
+def lookups(path_csv, path_png):
+    rows = list(csv.DictReader(open(path_csv)))
+    brdfs = list(dict.fromkeys(r["brdf"] for r in rows))
+    maps = list(dict.fromkeys(r["map"] for r in rows))
+    colours = {"bilinear": "tab:red", "hermite": "tab:green"}
+    figure, axes = plt.subplots(1, len(brdfs), figsize=(5 * len(brdfs), 4), squeeze=False)
+    for axis, brdf in zip(axes[0], brdfs):
+        for method in ("bilinear", "hermite"):
+            mine = [r for r in rows if r["brdf"] == brdf and r["method"] == method]
+            if not mine:
+                continue
+            offsets = sorted({float(r["offset"]) for r in mine})
+            mean = [sum(float(r["mean_error"]) for r in mine if float(r["offset"]) == o) /
+                    len(maps) for o in offsets]
+            worst = [max(float(r["max_error"]) for r in mine if float(r["offset"]) == o)
+                     for o in offsets]
+            m = mine[0]["wo_resolution"]
+            label = (f"first version: {m}² entries, bilinear" if method == "bilinear" else
+                     f"default: {m}² entries with derivatives, Hermite")
+            axis.plot(offsets, [max(v, 1e-6) * 100 for v in mean], marker="o", markersize=3,
+                      color=colours[method], label=label + " (mean)")
+            axis.plot(offsets, [max(v, 1e-6) * 100 for v in worst], linestyle=":",
+                      color=colours[method], label="largest")
+        axis.set_title(f"{brdf}, maps: {', '.join(maps)}", fontsize=9)
+        axis.set_xlabel("offset from the nearest entry along s and t (grid steps)")
+        axis.set_yscale("log")
+        axis.grid(True, which="both", alpha=0.3)
+        axis.legend(fontsize=7)
+    axes[0][0].set_ylabel("relative error against the map (%)")
+    figure.tight_layout()
+    figure.savefig(path_png, dpi=100)
+
+
 def main(folder):
-    rows = list(csv.DictReader(open(os.path.join(folder, "results.csv"))))
-    panel_grid(rows, "convolve_ns", "time per convolution (ns)", os.path.join(folder, "chart.png"))
-    panel_grid(rows, "bytes", "bytes of the light's representation", os.path.join(folder, "storage.png"))
+    results = os.path.join(folder, "results.csv")
+    if os.path.exists(results):
+        rows = list(csv.DictReader(open(results)))
+        panel_grid(rows, "convolve_ns", "time per convolution (ns)", os.path.join(folder, "chart.png"))
+        panel_grid(rows, "bytes", "bytes of the light's representation", os.path.join(folder, "storage.png"))
     rotation_csv = os.path.join(folder, "rotation.csv")
     if os.path.exists(rotation_csv):
         rotation(rotation_csv, os.path.join(folder, "rotation.png"))
+    lookups_csv = os.path.join(folder, "lookups.csv")
+    if os.path.exists(lookups_csv):
+        lookups(lookups_csv, os.path.join(folder, "lookups.png"))
 
 
 if __name__ == "__main__":
@@ -105,7 +146,8 @@ if __name__ == "__main__":
 def summary(folder):
     """DIR/summary.md: per panel, each method's best error, and the fastest convolution (and
     its storage) reaching 1 %, 2 % and 5 % error."""
-    rows = list(csv.DictReader(open(os.path.join(folder, "results.csv"))))
+    results = os.path.join(folder, "results.csv")
+    rows = list(csv.DictReader(open(results))) if os.path.exists(results) else []
     methods = list(dict.fromkeys(r["method"] for r in rows))
     lines = ["| BRDF | light | method | best error | ns at ≤1 % | ns at ≤2 % | ns at ≤5 % | bytes at ≤2 % |",
              "|---|---|---|---|---|---|---|---|"]
@@ -125,6 +167,16 @@ def summary(folder):
                     return f"{float(r[key]):.0f} ({r['param']})" if key == "convolve_ns" else f"{float(r[key]):.0f}"
                 lines.append(f"| {brdf} | {light} | {method} | {100 * best:.2f} % | {fastest(0.01)} | "
                              f"{fastest(0.02)} | {fastest(0.05)} | {fastest(0.02, 'bytes')} |")
+    sources = os.path.join(folder, "lookup_sources.csv")
+    if os.path.exists(sources):
+        lines += ["", "Lookups between table entries, largest relative error (%) by source:", "",
+                  "| BRDF | entries | texels | table tree | capture tree | interpolation | total | "
+                  "bilinear total |", "|---|---|---|---|---|---|---|---|"]
+        for r in csv.DictReader(open(sources)):
+            lines.append(f"| {r['brdf']} | {r['wo_resolution']}² | " + " | ".join(
+                f"{100 * float(r[k]):.2f}" for k in ("texels", "table_tree", "capture_tree",
+                                                     "interpolation", "total", "bilinear_total"))
+                + " |")
     open(os.path.join(folder, "summary.md"), "w").write("\n".join(lines) + "\n")
 
 

@@ -11,6 +11,7 @@
 #include "basis/core/version.h"
 #include "basis/io/image_file.h"
 #include "basis/study/speed_study.h"
+#include "basis/study/wo_study.h"
 #include "cli.h"
 
 extern char** environ;
@@ -31,6 +32,15 @@ bool run_plotter(const std::string& script, const std::vector<std::string>& args
   return WIFEXITED(status) && WEXITSTATUS(status) == 0;
 }
 
+// A file of the real inputs beside the project (../shared/data/RELATIVE, from the working
+// folder or the source tree), or "" when absent.
+std::string shared_data(const std::string& relative) {
+  for (const std::string& root : {std::string(".."), std::string(BASIS_SOURCE_DIR) + "/.."})
+    if (const std::string path = root + "/shared/data/" + relative; std::filesystem::exists(path))
+      return path;
+  return "";
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -44,14 +54,21 @@ int main(int argc, char** argv) {
       "wavelets (16 to 1024 kept coefficients). Ground truth: the integral of the exact BRDF "
       "over the map's pixels, occlusion traced per pixel. Writes DIR/results.csv "
       "(method,param,brdf,light,bytes,project_ns,convolve_ns,rel_error), DIR/rotation.csv, "
-      "and the charts DIR/chart.png, DIR/storage.png, DIR/rotation.png (matplotlib through "
-      "/usr/bin/python3; the numbers come from here).",
+      "DIR/lookups.csv (lookups between table entries: error against the offset from the "
+      "nearest entry, the first version's bilinear tables against the default Hermite ones, "
+      "under a map of bright windows and the shared probes uffizi and grace when present), "
+      "DIR/lookup_sources.csv (where that error comes from), the charts DIR/chart.png, "
+      "DIR/storage.png, DIR/rotation.png, DIR/lookups.png and DIR/summary.md (matplotlib "
+      "through /usr/bin/python3; the numbers come from here).",
       "qtbench");
   std::string out_dir, map, measured, scene = std::string(BASIS_SOURCE_DIR) + "/data/scene.obj";
-  bool quick = false;
+  bool quick = false, lookups_only = false;
   int threads = 0, scene_points = 0;
   app.add_option("--out", out_dir, "output folder (created if missing)")->required();
   app.add_flag("--quick", quick, "three panels, one light, fewer parameters: under a minute");
+  app.add_flag("--lookups-only", lookups_only,
+               "only the study of lookups between table entries (lookups.csv, "
+               "lookup_sources.csv, lookups.png): about 2 minutes, 15 s with --quick");
   app.add_option("--map", map,
                  "lat-long HDR map with a sun (default: the Poly Haven sunrise from Debian's "
                  "blender-data)");
@@ -76,37 +93,58 @@ int main(int argc, char** argv) {
     basis::SpeedStudyOptions options{.quick = quick, .measured = measured, .scene = scene};
     options.scene_points = app.count("--scene-points") ? scene_points : quick ? 4 : 8;
     if (options.measured.empty())
-      for (const auto& folder : {std::string("../shared/data/rgl-bsdf"),
-                                 std::string(BASIS_SOURCE_DIR) + "/../shared/data/rgl-bsdf"})
-        if (std::filesystem::exists(folder + "/satin_rosaline_rgb.bsdf")) {
-          options.measured = folder + "/satin_rosaline_rgb.bsdf";
-          break;
-        }
+      options.measured = shared_data("rgl-bsdf/satin_rosaline_rgb.bsdf");
     const auto arena = basis::cli::thread_arena(threads);
-    basis::cli::ProgressBar preparing("qtbench: cases", false);
-    const std::vector<basis::ComparisonCase> cases = arena->execute([&] {
-      return basis::speed_study_cases(env, basis::speed_study_panels(options), options,
-                                      preparing.control());
-    });
-    preparing.finish();
-    basis::cli::ProgressBar timing("qtbench: timings", false);
-    const std::vector<basis::ComparisonRow> rows =
-        basis::run_speed_study(cases, basis::speed_study_comparison(quick), timing.control());
-    timing.finish();
     const std::filesystem::path out(out_dir);
-    basis::write_comparison_csv((out / "results.csv").string(), rows);
-    const auto rotation = arena->execute([&] { return basis::run_rotation_study(env, quick); });
-    basis::write_rotation_csv((out / "rotation.csv").string(),
-                              std::filesystem::path(map).stem().string(), rotation);
+    std::size_t rows = 0;
+    if (!lookups_only) {
+      basis::cli::ProgressBar preparing("qtbench: cases", false);
+      const std::vector<basis::ComparisonCase> cases = arena->execute([&] {
+        return basis::speed_study_cases(env, basis::speed_study_panels(options), options,
+                                        preparing.control());
+      });
+      preparing.finish();
+      basis::cli::ProgressBar timing("qtbench: timings", false);
+      const std::vector<basis::ComparisonRow> results =
+          basis::run_speed_study(cases, basis::speed_study_comparison(quick), timing.control());
+      timing.finish();
+      basis::write_comparison_csv((out / "results.csv").string(), results);
+      rows = results.size();
+      const auto rotation = arena->execute([&] { return basis::run_rotation_study(env, quick); });
+      basis::write_rotation_csv((out / "rotation.csv").string(),
+                                std::filesystem::path(map).stem().string(), rotation);
+    }
+
+    // Lookups between table entries under high-contrast light: the synthetic windows and the
+    // shared probes with the most contrast, when present.
+    const basis::Environment windows(basis::bright_windows_map(), 0, "windows");
+    std::vector<basis::Environment> probes;
+    for (const std::string name : {"uffizi", "grace"})
+      if (const std::string path = shared_data("probes/" + name + ".hdr"); !path.empty())
+        probes.emplace_back(basis::read_image(path), 0, name);
+    std::vector<basis::WoStudyMap> lookup_maps = {{"windows", &windows}};
+    for (const basis::Environment& p : probes)
+      lookup_maps.push_back({p.name(), &p});
+    basis::cli::ProgressBar lookups("qtbench: lookups", false);
+    const auto brdfs = basis::wo_study_brdfs(quick);
+    const auto offsets = arena->execute(
+        [&] { return basis::wo_offset_study(lookup_maps, brdfs, quick, lookups.control()); });
+    const auto sources =
+        arena->execute([&] { return basis::wo_error_sources(lookup_maps, brdfs); });
+    lookups.finish();
+    basis::write_wo_csv((out / "lookups.csv").string(), offsets);
+    basis::write_wo_sources_csv((out / "lookup_sources.csv").string(), sources);
 
     const std::string script = std::string(BASIS_SOURCE_DIR) + "/scripts/plot_bench.py";
     const bool plotted = std::filesystem::exists(script) && run_plotter(script, {out_dir});
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    std::printf("qtbench: %zu rows in %s/results.csv, rotation in %s/rotation.csv%s, %.0f s\n",
-                rows.size(), out_dir.c_str(), out_dir.c_str(),
-                plotted ? ", charts chart.png, storage.png, rotation.png"
-                        : " (charts not drawn: run scripts/plot_bench.py DIR)",
-                seconds);
+    std::printf(
+        "qtbench: %zu rows in %s/results.csv, rotation.csv, lookups.csv, lookup_sources.csv%s, "
+        "%.0f s\n",
+        rows, out_dir.c_str(),
+        plotted ? ", charts chart.png, storage.png, rotation.png, lookups.png, summary.md"
+                : " (charts not drawn: run scripts/plot_bench.py DIR)",
+        seconds);
   });
 }

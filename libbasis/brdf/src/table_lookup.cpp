@@ -22,7 +22,7 @@ Convolution convolve_tap(const BrdfTableView& table, const TableTap& tap,
   if (!tap.reads_derivatives() && tap.weights[0] == 1) return convolve(entry, radiance, options);
   const std::array<float, 3> weights = {float(tap.weights[0]), float(tap.weights[1]),
                                         float(tap.weights[2])};
-  const std::size_t groups = tap.reads_derivatives() ? 3 : 1;
+  const std::size_t groups = tap.weights[2] != 0 ? 3 : tap.weights[1] != 0 ? 2 : 1;
   return convolve_weighted(entry, std::span(weights.data(), groups), radiance, options);
 }
 

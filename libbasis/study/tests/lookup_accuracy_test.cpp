@@ -21,33 +21,12 @@
 #include "basis/core/parabolic.h"
 #include "basis/lighting/capture.h"
 #include "basis/lighting/shading.h"
+#include "basis/study/wo_study.h"
 #include "support/environments.h"
 #include "support/reflection_reference.h"
 
 namespace basis {
 namespace {
-
-// Windows of radiance 30 to 200, a few pixels to a few dozen wide, with sharp edges, on a ground
-// of 0.02: the contrast lies in the sky itself, not in a compact sun kept apart.
-Image windows_map() {
-  const int w = 256, h = 128;
-  Image image(w, h, 3);
-  for (float& p : image.pixels)
-    p = 0.02f;
-  struct Window {
-    int column, row, columns, rows;
-    float radiance;
-  };
-  const Window windows[] = {{20, 20, 6, 10, 60},   {60, 35, 4, 4, 200}, {100, 10, 10, 6, 40},
-                            {150, 45, 3, 12, 100}, {200, 25, 8, 8, 80}, {230, 55, 5, 3, 150},
-                            {128, 2, 40, 3, 30}};
-  for (const Window& win : windows)
-    for (int y = win.row; y < win.row + win.rows; ++y)
-      for (int x = win.column; x < win.column + win.columns; ++x)
-        for (int c = 0; c < 3; ++c)
-          image.at(x % w, y, c) = win.radiance * (1 - 0.1f * c);
-  return image;
-}
 
 struct Case {
   std::string name;
@@ -81,7 +60,7 @@ class LookupAccuracy : public ::testing::TestWithParam<Case> {};
 
 TEST_P(LookupAccuracy, BetweenEntriesMatchesDirectIntegrationUnderHighContrastLight) {
   const Case& k = GetParam();
-  std::vector<std::pair<std::string, Image>> maps = {{"windows", windows_map()}};
+  std::vector<std::pair<std::string, Image>> maps = {{"windows", bright_windows_map()}};
   for (const std::string name : {"grace", "uffizi", "pisa", "ennis", "wells"})
     if (auto probe = testing::real_probe(name)) maps.push_back({name, std::move(*probe)});
 
