@@ -26,7 +26,7 @@ step() {  # step NAME command...: runs a command, records its wall time
   printf '%-44s %6.2f s\n' "$name" "$(echo "$end - $start" | bc)" >>"$summary"
 }
 
-step "brdf2qt phong.json (33x33 x 128x128)" $bin/brdf2qt data/phong.json -o out/phong.qt
+step "brdf2qt phong.json (57x57 x 128x128)" $bin/brdf2qt data/phong.json -o out/phong.qt
 step "brdf2qt ggx.json (33x33 x 128x128)" $bin/brdf2qt data/ggx.json -o out/ggx.qt
 step "capture2qt 1000 points, 128x128, 4 spp" \
   $bin/capture2qt --env "$env_map" --scene data/scene.obj --sample 1000 --seed 1 -o out/captures.qt
@@ -36,7 +36,7 @@ step "qtconvolve phong x captures" \
 step "qtconvolve ggx x captures (wo 30 deg)" \
   $bin/qtconvolve out/ggx.qt out/captures.qt --wo 0.5,0,0.866 --time --csv \
   --png out/ggx_radiance.png >out/ggx_radiance.csv 2>out/ggx_time.txt
-$bin/qtinfo out/phong.qt --png out/phong_entry.png --entry 16,10 >out/phong_info.txt
+$bin/qtinfo out/phong.qt --png out/phong_entry.png --entry 28,18 >out/phong_info.txt
 $bin/qtinfo out/captures.qt --png out/capture.png --index 0 >out/captures_info.txt
 
 {

@@ -1,7 +1,8 @@
 // Lookups on real data, cold: the main job's tables against its 1000 captures read from a file
 // (main_job_data.h), by the trees (full descents and accuracy targets) and by vectorised dense
 // products of the trees' reconstructions, side by side. Also one capture repeated (hot), to
-// tell the cost of the descent from the cost of reaching memory.
+// tell the cost of the descent from the cost of reaching memory; and lookups between entries,
+// Hermite against bilinear in the same tables and against the first version's tables.
 #include <benchmark/benchmark.h>
 
 #include "basis/lighting/shading.h"
@@ -61,6 +62,29 @@ BENCHMARK(BM_DenseLookups)
     ->Name("lookup/dense")
     ->ArgNames({"ggx", "hot"})
     ->ArgsProduct({{0, 1}, {0, 1}})
+    ->Unit(benchmark::kMillisecond);
+
+// Lookups between entries (wo 21 degrees off the normal, off every grid line): arguments table
+// (0 Phong, 1 GGX) and method (0: the first version's table, bilinear; 1: the default table,
+// bilinear; 2: the default table, Hermite).
+void BM_BetweenEntries(benchmark::State& state) {
+  const bool ggx = state.range(0) != 0;
+  const int method = int(state.range(1));
+  const std::string name = std::string(ggx ? "ggx" : "phong") + (method == 0 ? "_first" : "");
+  const BrdfTableView table = main_job_file(name).brdf_table();
+  const CaptureSetView captures = main_job_file("captures").captures();
+  ShadingOptions options;
+  options.wo = Vec3(0.3, 0.2, 0.93).normalized();
+  options.interpolation = method == 2 ? WoInterpolation::hermite : WoInterpolation::bilinear;
+  for (auto _ : state)
+    for (std::size_t k = 0; k < captures.size(); ++k)
+      benchmark::DoNotOptimize(shade(table, captures, k, options));
+  state.SetItemsProcessed(std::int64_t(state.iterations() * captures.size()));
+}
+BENCHMARK(BM_BetweenEntries)
+    ->Name("lookup/between_entries")
+    ->ArgNames({"ggx", "method"})
+    ->ArgsProduct({{0, 1}, {0, 1, 2}})
     ->Unit(benchmark::kMillisecond);
 
 }  // namespace

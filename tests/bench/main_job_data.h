@@ -1,5 +1,7 @@
 // The main job's files for the lookup benchmarks, made on first use and kept in the build
-// folder: data/phong.json and data/ggx.json tabulated at the defaults, and 1000 captures on
+// folder (named with the format version): data/phong.json and data/ggx.json tabulated at the
+// defaults ("phong", "ggx") and as the first version tabulated them ("phong_first", "ggx_first":
+// 33 x 33 entries without derivatives over wo, cut relative to the mean), and 1000 captures on
 // data/scene.obj under the Poly Haven sunrise map (as scripts/demo.sh makes them). Loaded as the
 // tools load them, so that trees are read from a memory-mapped file, cold unless reused.
 #pragma once
@@ -24,7 +26,8 @@ inline const QtFile& main_job_file(const std::string& name) {
   if (auto it = loaded.find(name); it != loaded.end()) return it->second;
   const std::filesystem::path folder = BASIS_BENCH_DATA_DIR;
   std::filesystem::create_directories(folder);
-  const std::string path = (folder / (name + ".qt")).string();
+  const std::string path =
+      (folder / (name + "_v" + std::to_string(kQtFormatVersion) + ".qt")).string();
   const std::string source = BASIS_SOURCE_DIR;
   if (!std::filesystem::exists(path)) {
     if (name == "captures") {
@@ -46,8 +49,15 @@ inline const QtFile& main_job_file(const std::string& name) {
       write_qt(path, encode_capture_set(set.view(), recipe.projection,
                                         {"capture2qt", "bench", capture_parameters(recipe), {}}));
     } else {
-      const BrdfSpec spec = read_brdf_spec(source + "/data/" + name + ".json");
-      const BrdfTableOptions options;
+      const bool first = name.ends_with("_first");
+      const BrdfSpec spec =
+          read_brdf_spec(source + "/data/" + name.substr(0, name.find('_')) + ".json");
+      BrdfTableOptions options;
+      options.wo_resolution = first ? 33 : default_wo_resolution(spec.brdf);
+      if (first) {
+        options.wo_derivatives = false;
+        options.projection.local_floor = 0;
+      }
       const BrdfTable table = tabulate_brdf(spec.brdf, options);
       write_qt(path, encode_brdf_table(table.view(), spec.model, spec.text, options.projection,
                                        {"brdf2qt", "bench", "{}", {}}));
