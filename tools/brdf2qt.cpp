@@ -34,7 +34,7 @@ int main(int argc, char** argv) {
                  "2 GiB, tabulation stops with an error beyond");
   app.add_option("--wo-res", wo_res,
                  "entries per side of the parabolic grid over wo (default: from the width of "
-                 "the BRDF's lobe, 33 for Phong 40 and wider, 57 for Phong 100, 73 for Phong "
+                 "the BRDF's lobe, 33 for Phong 30 and wider, 57 for Phong 100, 81 for Phong "
                  "200, up to 129; see README)")
       ->check(CLI::Range(2, 256));
   app.add_option(

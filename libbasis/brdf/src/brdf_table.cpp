@@ -81,8 +81,8 @@ double lobe_width(const Brdf& brdf) {
 
 int default_wo_resolution(const Brdf& brdf) {
   const double width = lobe_width(brdf);
-  // Steps of 4 / (M - 1) radians at the normal, at most 0.8 widths: M - 1 >= 5 / width.
-  const double steps = std::isfinite(width) ? 5 / width : 0;
+  // Steps of 4 / (M - 1) radians at the normal, at most 0.73 widths: M - 1 >= 5.5 / width.
+  const double steps = std::isfinite(width) ? 5.5 / width : 0;
   const int rounded = int(std::ceil(steps / 8)) * 8;
   return std::clamp(rounded, 32, 128) + 1;
 }

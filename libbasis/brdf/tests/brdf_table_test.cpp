@@ -160,7 +160,8 @@ TEST(HermiteTaps, ReproduceCubicsAlongEachAxis) {
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> unit(-0.6, 0.6);
   for (int k = 0; k < 200; ++k) {
-    const Vec2 st(unit(rng), unit(rng));
+    const double s0 = unit(rng), t0 = unit(rng);
+    const Vec2 st(s0, t0);
     double sum = 0, value_weights = 0;
     for (const TableTap& tap :
          table_taps(m, parabolic_to_hemisphere(st), WoInterpolation::hermite)) {

@@ -86,7 +86,8 @@ TEST(ConcentricMap, AreaIsPiTimesSquareArea) {
   std::uniform_real_distribution<double> unit(0.01, 0.99);
   const double h = 1e-6;
   for (int k = 0; k < 1000; ++k) {
-    const Vec2 uv(unit(rng), unit(rng));
+    const double u = unit(rng), v = unit(rng);
+    const Vec2 uv(u, v);
     if (std::abs(std::abs(uv.x() - 0.5) - std::abs(uv.y() - 0.5)) < 1e-4) continue;
     const Vec2 du = (square_to_uniform_disk_concentric(uv + Vec2(h, 0)) -
                      square_to_uniform_disk_concentric(uv - Vec2(h, 0))) /
@@ -243,7 +244,8 @@ TEST(SquareSymmetry, CommuteWithTheConcentricAndParabolicMaps) {
   std::uniform_real_distribution<double> unit(0, 1);
   for (const SquareSymmetry& g : SquareSymmetry::all())
     for (int k = 0; k < 2000; ++k) {
-      const Vec2 uv(unit(rng), unit(rng));
+      const double u = unit(rng), v = unit(rng);
+      const Vec2 uv(u, v);
       const Vec3 moved = g.apply(square_to_cosine_hemisphere(uv));
       EXPECT_LT((square_to_cosine_hemisphere(move_square_point(g, uv)) - moved).norm(), 1e-12);
       const Vec2 st = hemisphere_to_parabolic(square_to_cosine_hemisphere(uv));

@@ -38,6 +38,24 @@ Image bright_windows_map() {
   return image;
 }
 
+std::vector<Vec3> directions_between_entries(int m, int count, double max_degrees) {
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  const double r_max = std::tan(max_degrees * std::numbers::pi / 180 / 2);
+  std::vector<Vec3> out;
+  while (int(out.size()) < count) {
+    const double s = unit(rng) * r_max, t = unit(rng) * r_max;  // in this order on every build
+    if (std::hypot(s, t) > r_max) continue;
+    bool middle = true;
+    for (const double x : {s, t}) {
+      const double g = (x + 1) / 2 * (m - 1), f = g - std::floor(g);
+      middle = middle && f >= 0.2 && f <= 0.8;
+    }
+    if (middle) out.push_back(parabolic_to_hemisphere(Vec2(s, t)));
+  }
+  return out;
+}
+
 std::vector<WoStudyBrdf> wo_study_brdfs(bool quick) {
   std::vector<WoStudyBrdf> all = {{"phong100", Phong{{0.2, 0.2, 0.2}, {0.6, 0.6, 0.6}, 100}},
                                   {"ggx0.1", Ggx{{0.1, 0.1, 0.1}, {0.9, 0.9, 0.9}, 0.1}},
@@ -116,7 +134,8 @@ std::vector<WoStudyRow> wo_offset_study(const std::vector<WoStudyMap>& maps,
       std::uniform_real_distribution<double> unit(-r_max, r_max);
       std::vector<Vec3> directions;
       for (int c = 0; c < cells;) {
-        const Vec2 middle(unit(rng), unit(rng));
+        const double x = unit(rng), y = unit(rng);
+        const Vec2 middle(x, y);
         if (middle.norm() > r_max) continue;
         const double i0 = std::floor((middle.x() + 1) / h), j0 = std::floor((middle.y() + 1) / h);
         for (const double f : offsets)
@@ -159,21 +178,7 @@ std::vector<WoErrorSources> wo_error_sources(const std::vector<WoStudyMap>& maps
   for (const WoStudyBrdf& b : brdfs) {
     control.check();
     const int m = default_wo_resolution(b.brdf);
-    // 24 directions up to 70 degrees in the middle of cells (fractions 0.2 to 0.8 both ways).
-    std::mt19937 rng(17);
-    std::uniform_real_distribution<double> unit(-1, 1);
-    const double r_max = std::tan(70 * std::numbers::pi / 180 / 2);
-    std::vector<Vec3> directions;
-    while (directions.size() < 24) {
-      const Vec2 st(unit(rng) * r_max, unit(rng) * r_max);
-      if (st.norm() > r_max) continue;
-      bool middle = true;
-      for (const double x : {st.x(), st.y()}) {
-        const double g = (x + 1) / 2 * (m - 1), f = g - std::floor(g);
-        middle = middle && f >= 0.2 && f <= 0.8;
-      }
-      if (middle) directions.push_back(parabolic_to_hemisphere(st));
-    }
+    const std::vector<Vec3> directions = directions_between_entries(m, 24);
     const BrdfTable table = study_table(b.brdf, false, directions);
     BrdfTableOptions defaults;
     std::vector<Grid> at_wo(directions.size());

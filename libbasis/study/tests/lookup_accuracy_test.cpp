@@ -36,26 +36,6 @@ struct Case {
   double table_tolerance, total_tolerance;
 };
 
-// Directions up to 70 degrees whose parabolic coordinates lie in the middle of a grid cell of
-// an m x m table (fractions 0.2 to 0.8 along both axes): as far from the entries as they get.
-std::vector<Vec3> between_entries(int m, int count) {
-  std::mt19937 rng(17);
-  std::uniform_real_distribution<double> unit(-1, 1);
-  const double r_max = std::tan(70 * std::numbers::pi / 180 / 2);
-  std::vector<Vec3> out;
-  while (int(out.size()) < count) {
-    const Vec2 st(unit(rng) * r_max, unit(rng) * r_max);
-    if (st.norm() > r_max) continue;
-    bool middle = true;
-    for (const double x : {st.x(), st.y()}) {
-      const double g = (x + 1) / 2 * (m - 1), f = g - std::floor(g);
-      middle = middle && f >= 0.2 && f <= 0.8;
-    }
-    if (middle) out.push_back(parabolic_to_hemisphere(st));
-  }
-  return out;
-}
-
 class LookupAccuracy : public ::testing::TestWithParam<Case> {};
 
 TEST_P(LookupAccuracy, BetweenEntriesMatchesDirectIntegrationUnderHighContrastLight) {
@@ -67,7 +47,7 @@ TEST_P(LookupAccuracy, BetweenEntriesMatchesDirectIntegrationUnderHighContrastLi
   BrdfTableOptions options;
   options.wo_resolution = default_wo_resolution(k.brdf);
   options.tilt_derivatives = false;  // untilted lookups do not read them
-  const std::vector<Vec3> directions = between_entries(options.wo_resolution, 24);
+  const std::vector<Vec3> directions = directions_between_entries(options.wo_resolution, 32);
   options.only_for = directions;
   const BrdfTable table = tabulate_brdf(k.brdf, options);
   // The first version's table, for the record (33^2 entries, no derivatives over wo, cut

@@ -113,8 +113,8 @@ double lobe_width(const Brdf& brdf);
 
 // The outgoing-direction resolution M a table of this BRDF needs for Hermite lookups between
 // entries to hold 1 % under high-contrast light (README): grid steps at the normal of at most
-// 0.8 lobe widths (the parabolic step 2 / (M - 1) is 4 / (M - 1) radians there), M - 1 a
-// multiple of 8, from 33 (the lobes of Phong 40 and wider) to 129 (Phong 600 and sharper).
+// 0.73 lobe widths (the parabolic step 2 / (M - 1) is 4 / (M - 1) radians there), M - 1 a
+// multiple of 8, from 33 (the lobes of Phong 30 and wider) to 129 (Phong 500 and sharper).
 int default_wo_resolution(const Brdf& brdf);
 
 // Texel averages over wi of f(wi, wo) per channel, at wi_resolution: a slice of the BRDF.

@@ -8,6 +8,7 @@
 
 #include "basis/brdf/brdf.h"
 #include "basis/core/task.h"
+#include "basis/core/vector.h"
 #include "basis/io/image.h"
 #include "basis/lighting/environment.h"
 
@@ -26,6 +27,11 @@ struct WoStudyBrdf {
   std::string name;
   Brdf brdf;
 };
+
+// `count` directions up to `max_degrees` from the normal whose parabolic coordinates lie in the
+// middle of a cell of an m x m table's grid (fractions 0.2 to 0.8 along s and t): as far from
+// the entries as directions get. The same on every build (seeded, draws in order).
+std::vector<Vec3> directions_between_entries(int m, int count, double max_degrees = 70);
 
 // Lambert 0.2 + Phong 100 and 200 (ks 0.6, 0.8), GGX 0.1 (kd 0.1, f0 0.9); quick: the first.
 std::vector<WoStudyBrdf> wo_study_brdfs(bool quick);
