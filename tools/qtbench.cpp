@@ -117,14 +117,11 @@ int main(int argc, char** argv) {
 
     // Lookups between table entries under high-contrast light: the synthetic windows and the
     // shared probes with the most contrast, when present.
-    const basis::Environment windows(basis::bright_windows_map(), 0, "windows");
-    std::vector<basis::Environment> probes;
+    std::vector<std::string> probes;
     for (const std::string name : {"uffizi", "grace"})
       if (const std::string path = shared_data("probes/" + name + ".hdr"); !path.empty())
-        probes.emplace_back(basis::read_image(path), 0, name);
-    std::vector<basis::WoStudyMap> lookup_maps = {{"windows", &windows}};
-    for (const basis::Environment& p : probes)
-      lookup_maps.push_back({p.name(), &p});
+        probes.push_back(path);
+    const std::vector<basis::WoStudyMap> lookup_maps = basis::wo_study_maps(probes);
     basis::cli::ProgressBar lookups("qtbench: lookups", false);
     const auto brdfs = basis::wo_study_brdfs(quick);
     const auto offsets = arena->execute(

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <numbers>
 #include <random>
@@ -12,6 +13,7 @@
 #include "basis/core/dense.h"
 #include "basis/core/file_error.h"
 #include "basis/core/parabolic.h"
+#include "basis/io/image_file.h"
 #include "basis/lighting/capture.h"
 #include "basis/lighting/shading.h"
 #include "basis/study/reference.h"
@@ -54,6 +56,16 @@ std::vector<Vec3> directions_between_entries(int m, int count, double max_degree
     if (middle) out.push_back(parabolic_to_hemisphere(Vec2(s, t)));
   }
   return out;
+}
+
+std::vector<WoStudyMap> wo_study_maps(const std::vector<std::string>& files) {
+  std::vector<WoStudyMap> maps;
+  maps.push_back({"windows", Environment(bright_windows_map(), 0, "windows")});
+  for (const std::string& file : files) {
+    const std::string name = std::filesystem::path(file).stem().string();
+    maps.push_back({name, Environment(read_image(file), 0, file)});
+  }
+  return maps;
 }
 
 std::vector<WoStudyBrdf> wo_study_brdfs(bool quick) {
@@ -144,8 +156,8 @@ std::vector<WoStudyRow> wo_offset_study(const std::vector<WoStudyMap>& maps,
       }
       const BrdfTable table = study_table(b.brdf, first_version, directions);
       for (const WoStudyMap& map : maps) {
-        const CaptureSet set = zenith_capture(*map.environment);
-        const std::vector<Color> exact = exact_reflections(*map.environment, b.brdf, directions);
+        const CaptureSet set = zenith_capture(map.environment);
+        const std::vector<Color> exact = exact_reflections(map.environment, b.brdf, directions);
         for (std::size_t o = 0; o < offsets.size(); ++o) {
           WoStudyRow row{b.name, map.name, first_version ? "bilinear" : "hermite", m, offsets[o],
                          0,      0};
@@ -191,10 +203,10 @@ std::vector<WoErrorSources> wo_error_sources(const std::vector<WoStudyMap>& maps
     WoErrorSources s{b.name, m};
     for (const WoStudyMap& map : maps) {
       Grid texels;
-      const CaptureSet set = zenith_capture(*map.environment, &texels);
+      const CaptureSet set = zenith_capture(map.environment, &texels);
       const CaptureSetView view = set.view();
       const PackedTree capture_exact = pack(project(texels, {.tolerance = 0}));
-      const std::vector<Color> exact = exact_reflections(*map.environment, b.brdf, directions);
+      const std::vector<Color> exact = exact_reflections(map.environment, b.brdf, directions);
       for (std::size_t k = 0; k < directions.size(); ++k) {
         Color lights{0, 0, 0};
         for (const DirectionalLight& l : view.lights_of(0)) {

@@ -20,8 +20,11 @@ Image bright_windows_map();
 
 struct WoStudyMap {
   std::string name;
-  const Environment* environment;
+  Environment environment;
 };
+
+// The windows map, then one map per file (named by its stem, read through OpenImageIO).
+std::vector<WoStudyMap> wo_study_maps(const std::vector<std::string>& files);
 
 struct WoStudyBrdf {
   std::string name;
