@@ -13,7 +13,7 @@ packages=(
   libflatbuffers-dev flatbuffers-compiler
   nlohmann-json3-dev libtinyobjloader-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  python3-matplotlib
+  python3-matplotlib python3-dev python3-numpy python3-pytest pybind11-dev
   blender-data glmark2-data
 )
 

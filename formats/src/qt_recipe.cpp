@@ -50,15 +50,17 @@ std::string capture_parameters(const CaptureRecipe& r) {
 }
 
 CaptureRecipe capture_recipe(const QtFile& captures) {
+  // capture2qt and the Python module's capture() record their recipe; other writers do not.
   const Provenance p = captures.provenance();
-  if (p.tool != "capture2qt")
-    throw FileError(captures.name() + ": not made by capture2qt, its inputs are unknown");
   nlohmann::json j;
   try {
     j = nlohmann::json::parse(p.parameters);
   } catch (const nlohmann::json::exception&) {
     throw FileError(captures.name() + ": unreadable capture parameters in its provenance");
   }
+  if (!j.is_object() || !j.contains("res"))
+    throw FileError(captures.name() + ": its provenance (" + p.tool +
+                    ") records no capture recipe, its inputs are unknown");
   CaptureRecipe r;
   r.projection = captures.projection();
   try {

@@ -30,7 +30,8 @@ struct CaptureRecipe {
 // capture_recipe reads back.
 std::string capture_parameters(const CaptureRecipe& recipe);
 
-// The recipe of a capture set made by capture2qt; throws FileError if the file does not say.
+// The recipe of a capture set made by capture2qt (or the Python module's capture()); throws
+// FileError if the file does not say.
 // The projection options are those its trees were cut with.
 CaptureRecipe capture_recipe(const QtFile& captures);
 

@@ -1,0 +1,557 @@
+// The Python module `basis`: .qt files, trees as NumPy arrays, projection, convolution, table
+// lookups, BRDF models and tables, captures. A thin layer: every computation is the library's;
+// errors become exceptions with the library's one-line messages (FileError: basis.Error,
+// std::invalid_argument: ValueError), and long calls release the GIL.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+#include <tbb/task_arena.h>
+
+#include <array>
+#include <memory>
+#include <numbers>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "basis/brdf/brdf_spec.h"
+#include "basis/brdf/brdf_table.h"
+#include "basis/brdf/table_lookup.h"
+#include "basis/core/convolution.h"
+#include "basis/core/file_error.h"
+#include "basis/core/projection.h"
+#include "basis/core/version.h"
+#include "basis/format/qt_file.h"
+#include "basis/format/qt_recipe.h"
+#include "basis/io/image_file.h"
+#include "basis/lighting/capture.h"
+#include "basis/lighting/embree_scene.h"
+#include "basis/lighting/mesh.h"
+#include "basis/lighting/shading.h"
+
+namespace py = pybind11;
+
+namespace basis::python {
+namespace {
+
+// What a view lives on: a loaded file, or a tree, table or capture set made here.
+using Owner = std::shared_ptr<const void>;
+
+struct Tree {
+  Owner owner;
+  PackedTreeView view;
+};
+
+struct Table {
+  Owner owner;
+  BrdfTableView view;
+  std::string model, spec;
+  ProjectionOptions projection;
+  std::shared_ptr<const QtFile> file;  // when loaded: its spec's data files are found from it
+};
+
+struct Captures {
+  Owner owner;
+  CaptureSetView view;
+  ProjectionOptions projection;
+  std::optional<CaptureRecipe> recipe;  // when made here: written into the file's provenance
+};
+
+struct File {
+  std::shared_ptr<const QtFile> file;
+};
+
+struct PyBrdf {
+  Brdf brdf;
+  std::string model, spec;
+};
+
+Provenance python_provenance(const std::string& parameters = "{}") {
+  return {"basis (Python)", kVersion, parameters, {}};
+}
+
+Vec3 to_vec3(const std::array<double, 3>& a) {
+  return {a[0], a[1], a[2]};
+}
+
+py::array_t<double> rgb_array(const Rgb& v) {
+  py::array_t<double> out(3);
+  for (int c = 0; c < 3; ++c)
+    out.mutable_at(c) = v[c];
+  return out;
+}
+
+py::tuple result(const Convolution& c) {
+  return py::make_tuple(rgb_array(c.value), rgb_array(c.bound));
+}
+
+// An N x 3 array of doubles from vectors (a copy).
+py::array_t<double> vectors(std::span<const Vec3> v) {
+  py::array_t<double> out({py::ssize_t(v.size()), py::ssize_t(3)});
+  auto a = out.mutable_unchecked<2>();
+  for (std::size_t i = 0; i < v.size(); ++i)
+    for (int c = 0; c < 3; ++c)
+      a(py::ssize_t(i), c) = v[i][c];
+  return out;
+}
+
+std::vector<Vec3> to_vectors(
+    const py::array_t<double, py::array::c_style | py::array::forcecast>& a, const char* what) {
+  if (a.ndim() != 2 || a.shape(1) != 3)
+    throw std::invalid_argument(std::string(what) + " must be an N x 3 array");
+  std::vector<Vec3> out(std::size_t(a.shape(0)));
+  auto r = a.unchecked<2>();
+  for (py::ssize_t i = 0; i < a.shape(0); ++i)
+    out[std::size_t(i)] = {r(i, 0), r(i, 1), r(i, 2)};
+  return out;
+}
+
+WoInterpolation interpolation_of(const std::string& name) {
+  if (name == "hermite") return WoInterpolation::hermite;
+  if (name == "bilinear") return WoInterpolation::bilinear;
+  throw std::invalid_argument("interpolation must be 'hermite' or 'bilinear', got '" + name + "'");
+}
+
+BoundKind bounds_of(const std::string& name) {
+  if (name == "l2") return BoundKind::l2;
+  if (name == "linf") return BoundKind::linf;
+  throw std::invalid_argument("bounds must be 'l2' or 'linf', got '" + name + "'");
+}
+
+// A grid from an array of shape (N, N), (C, N, N) or (G, C, N, N), float texel averages.
+Grid to_grid(const py::array_t<float, py::array::c_style | py::array::forcecast>& a) {
+  std::array<py::ssize_t, 4> shape{1, 1, 0, 0};
+  if (a.ndim() == 2)
+    shape = {1, 1, a.shape(0), a.shape(1)};
+  else if (a.ndim() == 3)
+    shape = {1, a.shape(0), a.shape(1), a.shape(2)};
+  else if (a.ndim() == 4)
+    shape = {a.shape(0), a.shape(1), a.shape(2), a.shape(3)};
+  else
+    throw std::invalid_argument("a grid is an array of shape (N, N), (C, N, N) or (G, C, N, N)");
+  if (shape[2] != shape[3]) throw std::invalid_argument("a grid must be square");
+  if (shape[1] != 1 && shape[1] != 3) throw std::invalid_argument("a grid has 1 or 3 channels");
+  if (shape[0] < 1 || shape[0] > 3) throw std::invalid_argument("a grid has 1 to 3 groups");
+  if (!is_valid_resolution(int(shape[2])))
+    throw std::invalid_argument("a grid's side must be a power of two from 2 to 512, got " +
+                                std::to_string(shape[2]));
+  Grid grid{int(shape[2]), int(shape[1]), int(shape[0])};
+  std::copy(a.data(), a.data() + grid.texels.size(), grid.texels.begin());
+  return grid;
+}
+
+py::array_t<float> grid_array(Grid grid) {
+  py::array_t<float> out({py::ssize_t(grid.groups), py::ssize_t(grid.channels),
+                          py::ssize_t(grid.resolution), py::ssize_t(grid.resolution)});
+  std::copy(grid.texels.begin(), grid.texels.end(), out.mutable_data());
+  return out;
+}
+
+Tree own(PackedTree tree) {
+  auto held = std::make_shared<const PackedTree>(std::move(tree));
+  return {held, held->view()};
+}
+
+Table own(BrdfTable table, const ProjectionOptions& projection) {
+  auto held = std::make_shared<const BrdfTable>(std::move(table));
+  return {held, held->view(), held->model, held->spec, projection, nullptr};
+}
+
+// The BRDF that shades a capture set's lights: the one the table tabulates, from its spec;
+// none (the table's texels then) when the spec cannot be rebuilt, as for a measured BRDF whose
+// data file moved.
+std::optional<Brdf> table_brdf_of(const Table& table) {
+  try {
+    if (table.file) return table_brdf(*table.file).brdf;
+    if (!table.spec.empty()) return parse_brdf_spec(table.spec, "table spec", ".").brdf;
+  } catch (const FileError&) {
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(basis, m) {
+  m.doc() =
+      "libbasis: BRDFs and hemisphere captures of HDR lighting as quadtrees in a hierarchical "
+      "piecewise-constant basis over the cosine-weighted concentric map, convolved with a "
+      "certified error bound.";
+  m.attr("__version__") = kVersion;
+  static py::exception<FileError> error(m, "Error", PyExc_RuntimeError);
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const FileError& e) {
+      error(e.what());
+    } catch (const std::invalid_argument& e) {
+      PyErr_SetString(PyExc_ValueError, e.what());
+    } catch (const std::overflow_error& e) {
+      PyErr_SetString(PyExc_OverflowError, e.what());
+    } catch (const std::length_error& e) {
+      PyErr_SetString(PyExc_MemoryError, e.what());
+    }
+  });
+
+  py::class_<Tree>(m, "Tree",
+                   "A packed quadtree over the unit square (the cosine-weighted concentric map): "
+                   "half-float quadrant values scaled per tree, 8-bit certified bounds.")
+      .def_property_readonly("resolution", [](const Tree& t) { return t.view.shape().resolution; })
+      .def_property_readonly("channels", [](const Tree& t) { return t.view.shape().channels; })
+      .def_property_readonly("groups", [](const Tree& t) { return t.view.shape().groups; })
+      .def_property_readonly("bounded_groups",
+                             [](const Tree& t) { return t.view.shape().bounded_groups; })
+      .def_property_readonly(
+          "bounds",
+          [](const Tree& t) { return t.view.shape().bounds == BoundKind::l2 ? "l2" : "linf"; })
+      .def_property_readonly("node_count", [](const Tree& t) { return t.view.node_count(); })
+      .def_property_readonly("words_per_node",
+                             [](const Tree& t) { return t.view.shape().words_per_node(); })
+      .def_property_readonly("value_scale",
+                             [](const Tree& t) { return t.view.scales().value_scale; })
+      .def_property_readonly("bound_scale",
+                             [](const Tree& t) { return t.view.scales().bound_scale; })
+      .def_property_readonly(
+          "words",
+          [](py::object self) {
+            const Tree& t = self.cast<const Tree&>();
+            const auto w = t.view.words();
+            const py::ssize_t per_node = t.view.shape().words_per_node();
+            // The nodes where they lie (a view into the file or tree), read-only.
+            py::array_t<std::uint32_t> a({py::ssize_t(w.size()) / per_node, per_node},
+                                         {per_node * 4, py::ssize_t(4)}, w.data(), self);
+            py::detail::array_proxy(a.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
+            return a;
+          },
+          "The nodes without a copy: an array of node_count x words_per_node 32-bit words (link, "
+          "half values, bound codes; README, the .qt file format).")
+      .def(
+          "reconstruct", [](const Tree& t) { return grid_array(reconstruct(t.view)); },
+          "The piecewise-constant function at full resolution: float32 (groups, channels, N, N).")
+      .def(
+          "integrate",
+          [](const Tree& t, int group, int channel) { return integrate(t.view, group, channel); },
+          py::arg("group") = 0, py::arg("channel") = 0,
+          "The integral over the unit square of one group and channel.");
+
+  m.def(
+      "project",
+      [](const py::array_t<float, py::array::c_style | py::array::forcecast>& grid,
+         double tolerance, bool absolute, const std::string& bounds) {
+        ProjectionOptions options;
+        options.tolerance = tolerance;
+        options.mode =
+            absolute ? ProjectionOptions::Mode::absolute : ProjectionOptions::Mode::relative;
+        const Grid g = to_grid(grid);
+        const BoundKind kind = bounds_of(bounds);
+        py::gil_scoped_release release;
+        return own(pack(project(g, options), kind));
+      },
+      py::arg("grid"), py::arg("tolerance") = 0.05, py::arg("absolute") = false,
+      py::arg("bounds") = "l2",
+      "A grid of texel averages (N x N, C x N x N or G x C x N x N) projected into a packed tree: "
+      "a quadrant is refined while its bound exceeds tolerance times the channel's mean (or "
+      "tolerance itself with absolute=True).");
+
+  m.def(
+      "convolve",
+      [](const Tree& a, const Tree& b, double accuracy) {
+        return result(convolve(a.view, b.view, {accuracy}));
+      },
+      py::arg("a"), py::arg("b"), py::arg("accuracy") = 0.0,
+      "The integral over the unit square of a * b and its certified bound, as (value, bound) "
+      "RGB arrays (the hemisphere integral of A B cos is pi times it).");
+
+  py::class_<Table>(m, "Table", "A BRDF table: quadtrees over wi at a parabolic grid of wo.")
+      .def_property_readonly("wo_resolution", [](const Table& t) { return t.view.wo_resolution; })
+      .def_property_readonly("has_tilt", [](const Table& t) { return t.view.has_tilt(); })
+      .def_property_readonly("has_wo_derivatives",
+                             [](const Table& t) { return t.view.has_wo_derivatives(); })
+      .def_property_readonly("model", [](const Table& t) { return t.model; })
+      .def_property_readonly("spec", [](const Table& t) { return t.spec; })
+      .def(
+          "entry",
+          [](const Table& t, int i, int j) {
+            const int m = t.view.wo_resolution;
+            if (i < 0 || j < 0 || i >= m || j >= m)
+              throw std::invalid_argument("entry out of range");
+            return Tree{t.owner, t.view.entry(i, j)};
+          },
+          py::arg("i"), py::arg("j"));
+
+  py::class_<Captures>(m, "Captures", "Hemisphere captures at points: frames, trees, lights.")
+      .def("__len__", [](const Captures& c) { return c.view.size(); })
+      .def_property_readonly("positions",
+                             [](const Captures& c) { return vectors(c.view.positions); })
+      .def_property_readonly("normals", [](const Captures& c) { return vectors(c.view.normals); })
+      .def_property_readonly("tangents", [](const Captures& c) { return vectors(c.view.tangents); })
+      .def(
+          "tree",
+          [](const Captures& c, std::size_t k) {
+            if (k >= c.view.size()) throw std::invalid_argument("capture index out of range");
+            return Tree{c.owner, c.view.trees.tree(k)};
+          },
+          py::arg("k"))
+      .def(
+          "lights",
+          [](const Captures& c, std::size_t k) {
+            if (k >= c.view.size()) throw std::invalid_argument("capture index out of range");
+            py::list out;
+            for (const DirectionalLight& l : c.view.lights_of(k))
+              out.append(
+                  py::make_tuple(py::make_tuple(l.direction.x(), l.direction.y(), l.direction.z()),
+                                 py::make_tuple(l.energy[0], l.energy[1], l.energy[2])));
+            return out;
+          },
+          py::arg("k"), "The lights capture k keeps apart: (direction in its frame, energy).");
+
+  py::class_<File>(m, "File", "A loaded and verified .qt file (memory-mapped; trees in place).")
+      .def_property_readonly("kind", [](const File& f) { return to_string(f.file->kind()); })
+      .def_property_readonly("format_version",
+                             [](const File& f) { return f.file->format_version(); })
+      .def_property_readonly("zero_copy", [](const File& f) { return f.file->zero_copy(); })
+      .def_property_readonly("provenance",
+                             [](const File& f) {
+                               const Provenance p = f.file->provenance();
+                               py::dict d;
+                               d["tool"] = p.tool;
+                               d["tool_version"] = p.tool_version;
+                               d["parameters"] = p.parameters;
+                               d["sources"] = p.sources;
+                               return d;
+                             })
+      .def("tree",
+           [](const File& f) {
+             return Tree{f.file, f.file->tree()};
+           })
+      .def("table",
+           [](const File& f) {
+             return Table{f.file,
+                          f.file->brdf_table(),
+                          f.file->brdf_model(),
+                          f.file->brdf_spec(),
+                          f.file->projection(),
+                          f.file};
+           })
+      .def("captures", [](const File& f) {
+        return Captures{f.file, f.file->captures(), f.file->projection(), std::nullopt};
+      });
+
+  m.def(
+      "load",
+      [](const std::string& path) {
+        py::gil_scoped_release release;
+        return File{std::make_shared<const QtFile>(QtFile::load(path))};
+      },
+      py::arg("path"),
+      "Reads and verifies a .qt file; basis.Error names the file and the problem.");
+
+  py::class_<PyBrdf>(m, "Brdf", "An analytic or measured BRDF, from a JSON spec (brdf2qt's).")
+      .def_static(
+          "from_file",
+          [](const std::string& path) {
+            const BrdfSpec s = read_brdf_spec(path);
+            return PyBrdf{s.brdf, s.model, s.text};
+          },
+          py::arg("path"))
+      .def_static(
+          "from_json",
+          [](const std::string& text) {
+            const BrdfSpec s = parse_brdf_spec(text, "spec", ".");
+            return PyBrdf{s.brdf, s.model, s.text};
+          },
+          py::arg("text"))
+      .def_property_readonly("model", [](const PyBrdf& b) { return b.model; })
+      .def_property_readonly("channels", [](const PyBrdf& b) { return channel_count(b.brdf); })
+      .def(
+          "evaluate",
+          [](const PyBrdf& b,
+             const py::array_t<double, py::array::c_style | py::array::forcecast>& wi,
+             const py::array_t<double, py::array::c_style | py::array::forcecast>& wo) {
+            const std::vector<Vec3> i = to_vectors(wi, "wi"), o = to_vectors(wo, "wo");
+            if (i.size() != o.size() && o.size() != 1)
+              throw std::invalid_argument("wi and wo must hold as many directions (or wo one)");
+            py::array_t<double> out({py::ssize_t(i.size()), py::ssize_t(3)});
+            auto a = out.mutable_unchecked<2>();
+            for (std::size_t k = 0; k < i.size(); ++k) {
+              const Color f =
+                  evaluate(b.brdf, i[k].normalized(), o[o.size() == 1 ? 0 : k].normalized());
+              for (int c = 0; c < 3; ++c)
+                a(py::ssize_t(k), c) = f[c];
+            }
+            return out;
+          },
+          py::arg("wi"), py::arg("wo"),
+          "f(wi, wo) per channel for N x 3 arrays of directions in the local frame (z the normal).")
+      .def_property_readonly("lobe_width", [](const PyBrdf& b) { return lobe_width(b.brdf); })
+      .def_property_readonly("default_wo_resolution",
+                             [](const PyBrdf& b) { return default_wo_resolution(b.brdf); });
+
+  m.def(
+      "tabulate",
+      [](const PyBrdf& b, std::optional<int> wo_res, int wi_res, double tolerance,
+         double tolerance_floor, bool tilt, bool wo_derivatives, int threads) {
+        BrdfTableOptions options;
+        options.wo_resolution = wo_res.value_or(default_wo_resolution(b.brdf));
+        options.wi_resolution = wi_res;
+        options.projection.tolerance = tolerance;
+        options.projection.local_floor = tolerance_floor;
+        options.tilt_derivatives = tilt;
+        options.wo_derivatives = wo_derivatives;
+        py::gil_scoped_release release;
+        tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
+        BrdfTable table = arena.execute([&] { return tabulate_brdf(b.brdf, options); });
+        table.spec = b.spec;
+        return own(std::move(table), options.projection);
+      },
+      py::arg("brdf"), py::arg("wo_res") = py::none(), py::arg("wi_res") = 128,
+      py::arg("tolerance") = 0.05, py::arg("tolerance_floor") = 0.2, py::arg("tilt") = true,
+      py::arg("wo_derivatives") = true, py::arg("threads") = 0,
+      "A BRDF table with brdf2qt's defaults (outgoing resolution from the lobe's width).");
+
+  m.def(
+      "reflect",
+      [](const Table& table, const Tree& radiance, const std::array<double, 3>& wo, double accuracy,
+         const std::string& interpolation) {
+        return result(reflect(table.view, radiance.view, to_vec3(wo).normalized(),
+                              {{accuracy}, interpolation_of(interpolation)}));
+      },
+      py::arg("table"), py::arg("radiance"), py::arg("wo") = std::array<double, 3>{0, 0, 1},
+      py::arg("accuracy") = 0.0, py::arg("interpolation") = "hermite",
+      "Reflected radiance towards wo (pi included) of one radiance tree, and its bound.");
+
+  m.def(
+      "reflect_tilted",
+      [](const Table& table, const Tree& radiance, const std::array<double, 3>& wo,
+         const std::array<double, 2>& tilt, const std::string& mode) {
+        const TiltCompensation compensation =
+            mode == "none"             ? TiltCompensation::none
+            : mode == "reparametrised" ? TiltCompensation::reparametrised
+            : mode == "compensated"    ? TiltCompensation::compensated
+                                       : throw std::invalid_argument(
+                                             "mode must be none, reparametrised or "
+                                                "compensated");
+        return result(reflect_tilted(table.view, radiance.view, to_vec3(wo).normalized(),
+                                     {tilt[0], tilt[1]}, compensation));
+      },
+      py::arg("table"), py::arg("radiance"), py::arg("wo"), py::arg("tilt"),
+      py::arg("mode") = "compensated",
+      "Reflected radiance at a surface tilted by the rotation vector tilt = (x, y) (radians, in "
+      "the record's tangent plane) against the frame the radiance was recorded in; wo in the "
+      "tilted frame.");
+
+  m.def(
+      "shade",
+      [](const Table& table, const Captures& captures, const std::array<double, 3>& wo,
+         double accuracy, const std::string& interpolation) {
+        const std::optional<Brdf> brdf = table_brdf_of(table);
+        ShadingOptions options;
+        options.wo = to_vec3(wo).normalized();
+        options.light_brdf = brdf ? &*brdf : nullptr;
+        options.convolution.accuracy = accuracy;
+        options.interpolation = interpolation_of(interpolation);
+        const std::size_t n = captures.view.size();
+        py::array_t<double> values({py::ssize_t(n), py::ssize_t(3)}),
+            bounds({py::ssize_t(n), py::ssize_t(3)});
+        double* v = values.mutable_data();
+        double* b = bounds.mutable_data();
+        {
+          py::gil_scoped_release release;
+          for (std::size_t k = 0; k < n; ++k) {
+            const Convolution c = shade(table.view, captures.view, k, options);
+            for (int ch = 0; ch < 3; ++ch) {
+              v[3 * k + ch] = c.value[ch];
+              b[3 * k + ch] = c.bound[ch];
+            }
+          }
+        }
+        return py::make_tuple(values, bounds);
+      },
+      py::arg("table"), py::arg("captures"), py::arg("wo") = std::array<double, 3>{0, 0, 1},
+      py::arg("accuracy") = 0.0, py::arg("interpolation") = "hermite",
+      "Reflected radiance towards wo (each capture's frame) at every capture, with the lights "
+      "it keeps apart shaded by the table's BRDF (rebuilt from its spec; the table's texels "
+      "when that fails): (values, bounds), N x 3 arrays. What qtconvolve TABLE CAPTURES "
+      "prints.");
+
+  m.def(
+      "capture",
+      [](const py::array_t<double, py::array::c_style | py::array::forcecast>& points,
+         const py::array_t<double, py::array::c_style | py::array::forcecast>& normals,
+         const std::string& env, std::optional<std::array<double, 3>> constant,
+         const std::string& scene, int res, int spp, double tolerance, std::uint64_t seed,
+         bool splat_lights, int threads) {
+        const std::vector<Vec3> p = to_vectors(points, "points"),
+                                n = to_vectors(normals, "normals");
+        if (p.size() != n.size()) throw std::invalid_argument("as many normals as points");
+        if (env.empty() == !constant)
+          throw std::invalid_argument("give the light: env=PATH or constant=(r, g, b)");
+        const int strata = int(std::lround(std::sqrt(spp)));
+        if (strata * strata != spp) throw std::invalid_argument("spp must be a square number");
+        if (!is_valid_resolution(res))
+          throw std::invalid_argument("res must be a power of two from 2 to 512");
+        std::vector<SurfacePoint> surface;
+        for (std::size_t k = 0; k < p.size(); ++k) {
+          if (!(n[k].norm() > 0)) throw std::invalid_argument("a normal is zero");
+          surface.push_back({p[k], n[k].normalized()});
+        }
+        py::gil_scoped_release release;
+        CaptureRecipe recipe;
+        recipe.environment = env;
+        if (constant) recipe.constant = {(*constant)[0], (*constant)[1], (*constant)[2]};
+        recipe.scene = scene;
+        recipe.projection.tolerance = tolerance;
+        std::unique_ptr<TriangleMesh> mesh;
+        std::unique_ptr<EmbreeScene> traced;
+        if (!scene.empty()) {
+          mesh = std::make_unique<TriangleMesh>(read_obj(scene));
+          traced = std::make_unique<EmbreeScene>(*mesh);
+        }
+        recipe.options = {.resolution = res,
+                          .strata = strata,
+                          .seed = seed,
+                          .ray_offset = 1e-4 * std::max(1.0, mesh ? mesh->extent() : 1.0),
+                          .compact_lights = splat_lights ? CaptureOptions::CompactLights::splatted
+                                                         : CaptureOptions::CompactLights::apart};
+        const Environment environment = env.empty() ? Environment::constant(recipe.constant)
+                                                    : Environment(read_image(env), 0, env);
+        CaptureSetOptions options;
+        options.capture = recipe.options;
+        options.projection = recipe.projection;
+        tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
+        auto set = std::make_shared<const CaptureSet>(arena.execute(
+            [&] { return capture_set(environment, traced.get(), surface, options); }));
+        return Captures{set, set->view(), recipe.projection, recipe};
+      },
+      py::arg("points"), py::arg("normals"), py::arg("env") = "", py::arg("constant") = py::none(),
+      py::arg("scene") = "", py::arg("res") = 128, py::arg("spp") = 4, py::arg("tolerance") = 0.05,
+      py::arg("seed") = 1, py::arg("splat_lights") = false, py::arg("threads") = 0,
+      "Captures at points (N x 3) with normals (N x 3), lit by a lat-long map (env) or a constant, "
+      "occluded by an OBJ scene: what capture2qt --points makes, with the same defaults.");
+
+  m.def(
+      "write",
+      [](const std::string& path, const py::object& what) {
+        std::vector<std::byte> bytes;
+        if (py::isinstance<Table>(what)) {
+          const Table& t = what.cast<const Table&>();
+          bytes = encode_brdf_table(t.view, t.model, t.spec, t.projection, python_provenance());
+        } else if (py::isinstance<Captures>(what)) {
+          const Captures& c = what.cast<const Captures&>();
+          bytes = encode_capture_set(
+              c.view, c.projection,
+              python_provenance(c.recipe ? capture_parameters(*c.recipe) : std::string("{}")));
+        } else if (py::isinstance<Tree>(what)) {
+          bytes = encode_tree(what.cast<const Tree&>().view, {}, python_provenance());
+        } else {
+          throw std::invalid_argument("write takes a Table, Captures or Tree");
+        }
+        py::gil_scoped_release release;
+        write_qt(path, bytes);
+      },
+      py::arg("path"), py::arg("what"),
+      "Writes a table, capture set or tree as a .qt file (atomically; verified as the reader "
+      "verifies it).");
+}
+
+}  // namespace basis::python

@@ -1,0 +1,177 @@
+"""The Python module against the C++ tools on the same files, NumPy round trips, and errors.
+Runs with PYTHONPATH at the built module, BASIS_BIN at the tools and BASIS_SOURCE_DIR at the
+source tree (ctest sets them)."""
+import json
+import os
+import subprocess
+
+import numpy as np
+import pytest
+
+import basis
+
+BIN = os.environ.get("BASIS_BIN", "build/bin")
+SOURCE = os.environ.get("BASIS_SOURCE_DIR", ".")
+
+
+def tool(name, *args, cwd=None):
+    return subprocess.run([os.path.join(BIN, name), *map(str, args)], cwd=cwd, check=True,
+                          capture_output=True, text=True).stdout
+
+
+def qtconvolve_json(table, captures, *args):
+    out = json.loads(tool("qtconvolve", table, captures, "--json", "-q", *args))
+    values = np.array([r["value"] for r in out["results"]])
+    bounds = np.array([r["bound"] for r in out["results"]])
+    return values, bounds
+
+
+SPEC = '{"model": "phong", "kd": [0.5, 0.4, 0.3], "ks": 0.4, "exponent": 60}'
+POINTS = np.array([[0, 0, 0], [1, 0, 0], [0, 2, 0.5], [0.3, -1, 0.2], [2, 2, 2]], float)
+NORMALS = np.array([[0, 0, 1], [0.3, 0, 1], [0, -0.5, 1], [1, 1, 1], [0.1, 0.9, 0.2]], float)
+
+
+@pytest.fixture(scope="module")
+def made_by_tools(tmp_path_factory):
+    """A small table and a capture set made by brdf2qt and capture2qt."""
+    d = tmp_path_factory.mktemp("tools")
+    (d / "phong.json").write_text(SPEC)
+    tool("brdf2qt", "phong.json", "--wo-res", 9, "--wi-res", 16, "-q", cwd=d)
+    with open(d / "points.csv", "w") as f:
+        for p, n in zip(POINTS, NORMALS):
+            f.write(",".join(map(str, [*p, *n])) + "\n")
+    sky = "/usr/share/blender/datafiles/studiolights/world/sunrise.exr"  # Debian's blender-data
+    light = ["--env", sky] if os.path.exists(sky) else ["--env-constant", "0.3,0.6,1.2"]
+    tool("capture2qt", *light, "--points", "points.csv", "--res", 16, "-o", "captures.qt", "-q",
+         cwd=d)
+    return d, light
+
+
+def test_projection_round_trips_within_the_tolerance():
+    u, v = np.meshgrid((np.arange(32) + 0.5) / 32, (np.arange(32) + 0.5) / 32)
+    grid = np.stack([1.5 + np.sin(4 * u + c) * np.cos(3 * v) for c in range(3)]).astype(np.float32)
+    exact = basis.project(grid, tolerance=0)
+    back = exact.reconstruct()
+    assert back.shape == (1, 3, 32, 32)
+    # Half floats: 2^-11 relative.
+    np.testing.assert_allclose(back[0], grid, rtol=2.0 ** -11, atol=1e-7)
+    cut = basis.project(grid, tolerance=0.05)
+    assert cut.node_count < exact.node_count
+    means = grid.reshape(3, -1).mean(axis=1)
+    deviation = np.abs(cut.reconstruct()[0] - grid).reshape(3, -1).max(axis=1)
+    assert np.all(deviation <= 0.05 * means * (1 + 1e-3) + 2.0 ** -11 * grid.max())
+    for c in range(3):
+        assert cut.integrate(0, c) == pytest.approx(grid[c].mean(), rel=1e-3)
+
+
+def test_tree_words_are_the_nodes_in_place():
+    tree = basis.project(np.ones((16, 16), np.float32) * np.arange(16, dtype=np.float32), 0.01)
+    words = tree.words
+    assert words.dtype == np.uint32
+    assert words.shape == (tree.node_count, tree.words_per_node)
+    assert not words.flags.writeable
+    assert words.base is not None  # a view, kept alive by the tree
+    assert np.array_equal(tree.words, words)
+
+
+def test_convolution_matches_the_texels_within_its_bound():
+    rng = np.random.default_rng(5)
+    a = rng.uniform(0, 1, size=(3, 64, 64)).astype(np.float32)
+    b = rng.uniform(0, 3, size=(1, 64, 64)).astype(np.float32)
+    ta, tb = basis.project(a, 0.1), basis.project(b, 0.1)
+    value, bound = basis.convolve(ta, tb)
+    texels = (a * b).reshape(3, -1).mean(axis=1)
+    assert np.all(np.abs(value - texels) <= bound * (1 + 1e-4) + 1e-6)
+    dense = (ta.reconstruct()[0] * tb.reconstruct()[0]).reshape(3, -1).mean(axis=1)
+    np.testing.assert_allclose(value, dense, rtol=1e-3)
+
+
+def test_files_made_by_the_tools_shade_as_qtconvolve_does(made_by_tools):
+    d, _ = made_by_tools
+    table = basis.load(str(d / "phong.qt"))
+    captures = basis.load(str(d / "captures.qt"))
+    assert table.kind == "brdf-table" and captures.kind == "capture-set"
+    assert table.zero_copy and captures.zero_copy
+    assert len(captures.captures()) == len(POINTS)
+    np.testing.assert_allclose(captures.captures().positions, POINTS)
+    for wo, args in (((0, 0, 1), []), ((0.3, 0.2, 0.93), ["--wo", "0.3,0.2,0.93"]),
+                     ((0.5, 0, 0.87), ["--wo", "0.5,0,0.87", "--interpolation", "bilinear"])):
+        mode = "bilinear" if "bilinear" in args else "hermite"
+        values, bounds = basis.shade(table.table(), captures.captures(), wo, interpolation=mode)
+        expected, expected_bounds = qtconvolve_json(d / "phong.qt", d / "captures.qt", *args)
+        np.testing.assert_allclose(values, expected, rtol=1e-5)
+        np.testing.assert_allclose(bounds, expected_bounds, rtol=1e-3, atol=1e-7)
+
+
+def test_files_written_here_are_read_by_the_tools(made_by_tools, tmp_path):
+    d, light = made_by_tools
+    brdf = basis.Brdf.from_json(SPEC)
+    table = basis.tabulate(brdf, wo_res=9, wi_res=16)
+    kw = {"env": light[1]} if light[0] == "--env" else {"constant": (0.3, 0.6, 1.2)}
+    captures = basis.capture(POINTS, NORMALS, res=16, **kw)
+    basis.write(str(tmp_path / "t.qt"), table)
+    basis.write(str(tmp_path / "c.qt"), captures)
+    info = json.loads(tool("qtinfo", tmp_path / "t.qt", "--json"))
+    assert info["kind"] == "brdf-table"
+    values, _ = basis.shade(table, captures)
+    expected, _ = qtconvolve_json(tmp_path / "t.qt", tmp_path / "c.qt")
+    np.testing.assert_allclose(values, expected, rtol=1e-5)
+    # The same tables and captures as the tools make from the same inputs, node for node.
+    by_tool = basis.load(str(d / "phong.qt")).table()
+    for i, j in ((0, 0), (4, 4), (8, 3)):
+        assert np.array_equal(table.entry(i, j).words, by_tool.entry(i, j).words)
+    tool_captures = basis.load(str(d / "captures.qt")).captures()
+    for k in range(len(POINTS)):
+        assert np.array_equal(captures.tree(k).words, tool_captures.tree(k).words)
+    # The tools' full-resolution reference reads the recipe written here.
+    tool("qtconvolve", tmp_path / "t.qt", tmp_path / "c.qt", "--reference", "-q")
+
+
+def test_brdf_evaluation_matches_closed_forms():
+    lambert = basis.Brdf.from_json('{"model": "lambert", "albedo": [0.2, 0.5, 0.8]}')
+    wi = np.array([[0, 0, 1], [0.6, 0, 0.8], [0, 0, -1]], float)
+    f = lambert.evaluate(wi, np.array([[0, 0, 1]], float))
+    np.testing.assert_allclose(f[:2], np.tile([0.2 / np.pi, 0.5 / np.pi, 0.8 / np.pi], (2, 1)))
+    np.testing.assert_allclose(f[2], 0)
+    phong = basis.Brdf.from_json('{"model": "phong", "kd": 0, "ks": 1, "exponent": 20}')
+    wo = np.array([[0.6, 0, 0.8]])
+    mirror = np.array([[-0.6, 0, 0.8]])
+    assert phong.evaluate(mirror, wo)[0, 0] == pytest.approx(22 / (2 * np.pi))
+    assert phong.lobe_width == pytest.approx(np.arccos(2 ** (-1 / 20)) / 1.1774, rel=0.005)
+
+
+def test_a_constant_light_reflects_the_directional_albedo():
+    brdf = basis.Brdf.from_json('{"model": "phong", "kd": 0.3, "ks": 0.5, "exponent": 30}')
+    table = basis.tabulate(brdf, wo_res=9, wi_res=32, tilt=False)
+    light = basis.project(np.ones((8, 8), np.float32))
+    wo = np.array([0.4, 0.1, np.sqrt(1 - 0.17)])
+    value, _ = basis.reflect(table, light, tuple(wo))
+    # Directional albedo by a midpoint rule over the hemisphere (theta, phi).
+    n = 400
+    theta = (np.arange(n) + 0.5) / n * np.pi / 2
+    phi = (np.arange(2 * n) + 0.5) / (2 * n) * 2 * np.pi
+    t, p = np.meshgrid(theta, phi, indexing="ij")
+    wi = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], -1).reshape(-1, 3)
+    f = brdf.evaluate(wi, wo[None, :])[:, 0]
+    albedo = np.sum(f * wi[:, 2] * np.sin(t).ravel()) * (np.pi / 2 / n) * (2 * np.pi / (2 * n))
+    assert value[0] == pytest.approx(albedo, rel=0.01)
+
+
+def test_errors_are_exceptions_with_one_line(tmp_path):
+    with pytest.raises(basis.Error, match="missing.qt"):
+        basis.load(str(tmp_path / "missing.qt"))
+    (tmp_path / "junk.qt").write_bytes(b"not a qt file at all")
+    with pytest.raises(basis.Error, match="junk.qt"):
+        basis.load(str(tmp_path / "junk.qt"))
+    with pytest.raises(basis.Error, match="exponent"):
+        basis.Brdf.from_json('{"model": "phong", "kd": 0, "ks": 1, "exponent": -3}')
+    with pytest.raises(ValueError, match="power of two"):
+        basis.project(np.ones((3, 24, 24), np.float32))
+    with pytest.raises(ValueError):
+        basis.project(np.ones((2, 16, 16), np.float32))
+    with pytest.raises(ValueError, match="grid has NaN|NaN"):
+        basis.project(np.full((8, 8), np.nan, np.float32))
+    table = basis.tabulate(basis.Brdf.from_json('{"model": "lambert", "albedo": 0.5}'), wo_res=3,
+                           wi_res=4, tilt=False)
+    with pytest.raises(ValueError, match="out of range"):
+        table.entry(3, 0)
