@@ -49,6 +49,8 @@ struct Table {
   std::string model, spec;
   ProjectionOptions projection;
   std::shared_ptr<const QtFile> file;  // when loaded: its spec's data files are found from it
+  std::optional<Brdf> brdf;            // when tabulated here: the BRDF itself
+  std::string source;                  // when tabulated here from a spec file: its path
 };
 
 struct Captures {
@@ -65,10 +67,19 @@ struct File {
 struct PyBrdf {
   Brdf brdf;
   std::string model, spec;
+  std::string source;                               // the spec file, empty for a spec given as text
+  std::optional<int> wo_resolution, wi_resolution;  // the spec's "table" block
+  std::optional<double> tolerance;
 };
 
-Provenance python_provenance(const std::string& parameters = "{}") {
-  return {"basis (Python)", kVersion, parameters, {}};
+PyBrdf from_spec(const BrdfSpec& s, const std::string& source) {
+  return {s.brdf, s.model, s.text, source, s.wo_resolution, s.wi_resolution, s.tolerance};
+}
+
+Provenance python_provenance(const std::string& parameters = "{}", const std::string& source = "") {
+  Provenance p{"basis (Python)", kVersion, parameters, {}};
+  if (!source.empty()) p.sources.push_back(source);
+  return p;
 }
 
 Vec3 to_vec3(const std::array<double, 3>& a) {
@@ -155,16 +166,16 @@ Tree own(PackedTree tree) {
 
 Table own(BrdfTable table, const ProjectionOptions& projection) {
   auto held = std::make_shared<const BrdfTable>(std::move(table));
-  return {held, held->view(), held->model, held->spec, projection, nullptr};
+  return {held, held->view(), held->model, held->spec, projection, nullptr, std::nullopt, ""};
 }
 
 // The BRDF that shades a capture set's lights: the one the table tabulates, from its spec;
 // none (the table's texels then) when the spec cannot be rebuilt, as for a measured BRDF whose
 // data file moved.
 std::optional<Brdf> table_brdf_of(const Table& table) {
+  if (table.brdf) return table.brdf;
   try {
     if (table.file) return table_brdf(*table.file).brdf;
-    if (!table.spec.empty()) return parse_brdf_spec(table.spec, "table spec", ".").brdf;
   } catch (const FileError&) {
   }
   return std::nullopt;
@@ -230,7 +241,13 @@ PYBIND11_MODULE(basis, m) {
           "The piecewise-constant function at full resolution: float32 (groups, channels, N, N).")
       .def(
           "integrate",
-          [](const Tree& t, int group, int channel) { return integrate(t.view, group, channel); },
+          [](const Tree& t, int group, int channel) {
+            if (group < 0 || group >= t.view.shape().groups || channel < 0 ||
+                channel >= t.view.shape().channels)
+              throw std::invalid_argument("no group " + std::to_string(group) + ", channel " +
+                                          std::to_string(channel) + " in this tree");
+            return integrate(t.view, group, channel);
+          },
           py::arg("group") = 0, py::arg("channel") = 0,
           "The integral over the unit square of one group and channel.");
 
@@ -349,17 +366,11 @@ PYBIND11_MODULE(basis, m) {
   py::class_<PyBrdf>(m, "Brdf", "An analytic or measured BRDF, from a JSON spec (brdf2qt's).")
       .def_static(
           "from_file",
-          [](const std::string& path) {
-            const BrdfSpec s = read_brdf_spec(path);
-            return PyBrdf{s.brdf, s.model, s.text};
-          },
+          [](const std::string& path) { return from_spec(read_brdf_spec(path), path); },
           py::arg("path"))
       .def_static(
           "from_json",
-          [](const std::string& text) {
-            const BrdfSpec s = parse_brdf_spec(text, "spec", ".");
-            return PyBrdf{s.brdf, s.model, s.text};
-          },
+          [](const std::string& text) { return from_spec(parse_brdf_spec(text, "spec", "."), ""); },
           py::arg("text"))
       .def_property_readonly("model", [](const PyBrdf& b) { return b.model; })
       .def_property_readonly("channels", [](const PyBrdf& b) { return channel_count(b.brdf); })
@@ -389,12 +400,15 @@ PYBIND11_MODULE(basis, m) {
 
   m.def(
       "tabulate",
-      [](const PyBrdf& b, std::optional<int> wo_res, int wi_res, double tolerance,
-         double tolerance_floor, bool tilt, bool wo_derivatives, int threads) {
+      [](const PyBrdf& b, std::optional<int> wo_res, std::optional<int> wi_res,
+         std::optional<double> tolerance, double tolerance_floor, bool tilt, bool wo_derivatives,
+         int threads) {
+        // Arguments, else the spec's "table" block, else the defaults, as brdf2qt takes them.
         BrdfTableOptions options;
-        options.wo_resolution = wo_res.value_or(default_wo_resolution(b.brdf));
-        options.wi_resolution = wi_res;
-        options.projection.tolerance = tolerance;
+        options.wo_resolution =
+            wo_res.value_or(b.wo_resolution.value_or(default_wo_resolution(b.brdf)));
+        options.wi_resolution = wi_res.value_or(b.wi_resolution.value_or(128));
+        options.projection.tolerance = tolerance.value_or(b.tolerance.value_or(0.05));
         options.projection.local_floor = tolerance_floor;
         options.tilt_derivatives = tilt;
         options.wo_derivatives = wo_derivatives;
@@ -402,10 +416,13 @@ PYBIND11_MODULE(basis, m) {
         tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
         BrdfTable table = arena.execute([&] { return tabulate_brdf(b.brdf, options); });
         table.spec = b.spec;
-        return own(std::move(table), options.projection);
+        Table out = own(std::move(table), options.projection);
+        out.brdf = b.brdf;
+        out.source = b.source;
+        return out;
       },
-      py::arg("brdf"), py::arg("wo_res") = py::none(), py::arg("wi_res") = 128,
-      py::arg("tolerance") = 0.05, py::arg("tolerance_floor") = 0.2, py::arg("tilt") = true,
+      py::arg("brdf"), py::arg("wo_res") = py::none(), py::arg("wi_res") = py::none(),
+      py::arg("tolerance") = py::none(), py::arg("tolerance_floor") = 0.2, py::arg("tilt") = true,
       py::arg("wo_derivatives") = true, py::arg("threads") = 0,
       "A BRDF table with brdf2qt's defaults (outgoing resolution from the lobe's width).");
 
@@ -535,7 +552,8 @@ PYBIND11_MODULE(basis, m) {
         std::vector<std::byte> bytes;
         if (py::isinstance<Table>(what)) {
           const Table& t = what.cast<const Table&>();
-          bytes = encode_brdf_table(t.view, t.model, t.spec, t.projection, python_provenance());
+          bytes = encode_brdf_table(t.view, t.model, t.spec, t.projection,
+                                    python_provenance("{}", t.source));
         } else if (py::isinstance<Captures>(what)) {
           const Captures& c = what.cast<const Captures&>();
           bytes = encode_capture_set(

@@ -175,3 +175,7 @@ def test_errors_are_exceptions_with_one_line(tmp_path):
                            wi_res=4, tilt=False)
     with pytest.raises(ValueError, match="out of range"):
         table.entry(3, 0)
+    tree = basis.project(np.ones((8, 8), np.float32))
+    for group, channel in ((5, 0), (0, 2), (-1, 0), (100000000, 0)):
+        with pytest.raises(ValueError, match="no group"):
+            tree.integrate(group, channel)

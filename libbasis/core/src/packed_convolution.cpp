@@ -654,7 +654,7 @@ GroupConvolution dispatch(const PackedTreeView& a, const PackedTreeView& b, int 
 }
 
 void check_weights(const PackedTreeView& a, std::span<const float> weights) {
-  if (weights.empty() || int(weights.size()) > a.shape().bounded_groups)
+  if (weights.empty() || weights.size() > 3 || int(weights.size()) > a.shape().bounded_groups)
     throw std::invalid_argument("weights for " + std::to_string(weights.size()) +
                                 " groups of a tree with bounds for " +
                                 std::to_string(a.shape().bounded_groups));

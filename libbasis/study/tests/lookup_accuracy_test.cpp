@@ -1,7 +1,7 @@
 // Lookups between table entries under high-contrast light: default tables (outgoing resolution
 // from the lobe's width, derivatives over wo, Hermite lookups) and default captures (128^2,
 // compact lights apart) at the zenith of every probe in ../shared/data/probes and of a
-// synthetic map of sharp bright windows on a dark ground, at 24 outgoing directions up to 70
+// synthetic map of sharp bright windows on a dark ground, at 32 outgoing directions up to 70
 // degrees that fall between entries. Two errors are asserted:
 //   what the table adds: the lookup against the same capture tree convolved with f tabulated
 //     at wo itself, uncompressed (an independent tabulation, no interpolation);

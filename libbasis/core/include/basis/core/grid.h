@@ -38,7 +38,7 @@ struct Grid {
 Grid downsample(const Grid& grid, int resolution);
 
 // The grid's groups combined into one: sum over g < weights.size() of weights[g] times group g
-// (std::invalid_argument when the grid has fewer groups).
+// (trailing zero weights ignored; std::invalid_argument when a nonzero weight has no group).
 Grid combine_groups(const Grid& grid, std::span<const double> weights);
 
 // True when no value is NaN or infinite.
