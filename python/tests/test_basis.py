@@ -179,3 +179,22 @@ def test_errors_are_exceptions_with_one_line(tmp_path):
     for group, channel in ((5, 0), (0, 2), (-1, 0), (100000000, 0)):
         with pytest.raises(ValueError, match="no group"):
             tree.integrate(group, channel)
+
+
+def test_a_specs_table_block_is_taken_as_brdf2qt_takes_it(tmp_path):
+    spec = {"model": "phong", "kd": 0.3, "ks": 0.5, "exponent": 20,
+            "table": {"wo_res": 5, "wi_res": 8, "tolerance": 0.1}}
+    path = tmp_path / "blocked.json"
+    path.write_text(json.dumps(spec))
+    tool("brdf2qt", path.name, "-q", cwd=tmp_path)
+    by_tool = basis.load(str(tmp_path / "blocked.qt")).table()
+    table = basis.tabulate(basis.Brdf.from_file(str(path)))
+    assert table.wo_resolution == by_tool.wo_resolution == 5
+    for i, j in ((0, 0), (2, 2), (4, 1)):
+        assert np.array_equal(table.entry(i, j).words, by_tool.entry(i, j).words)
+    # An argument overrides the block.
+    assert basis.tabulate(basis.Brdf.from_file(str(path)), wo_res=3).wo_resolution == 3
+    # The spec file is named in the written table's provenance.
+    basis.write(str(tmp_path / "written.qt"), table)
+    info = json.loads(tool("qtinfo", tmp_path / "written.qt", "--json"))
+    assert str(path) in json.dumps(info)
