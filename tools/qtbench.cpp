@@ -136,12 +136,16 @@ int main(int argc, char** argv) {
     const bool plotted = std::filesystem::exists(script) && run_plotter(script, {out_dir});
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    std::printf(
-        "qtbench: %s%s/lookups.csv, lookup_sources.csv%s, %.0f s\n",
-        lookups_only ? "" : (std::to_string(rows) + " rows in results.csv, rotation.csv, ").c_str(),
-        out_dir.c_str(),
-        plotted ? ", charts chart.png, storage.png, rotation.png, lookups.png, summary.md"
-                : " (charts not drawn: run scripts/plot_bench.py DIR)",
-        seconds);
+    const std::string tables = lookups_only ? "lookups.csv, lookup_sources.csv"
+                                            : std::to_string(rows) +
+                                                  " rows in results.csv; rotation.csv, "
+                                                  "lookups.csv, lookup_sources.csv";
+    const std::string charts = lookups_only
+                                   ? "charts lookups.png, summary.md"
+                                   : "charts chart.png, storage.png, rotation.png, lookups.png, "
+                                     "summary.md";
+    std::printf("qtbench: in %s: %s, %s, %.0f s\n", out_dir.c_str(), tables.c_str(),
+                plotted ? charts.c_str() : "charts not drawn (run scripts/plot_bench.py DIR)",
+                seconds);
   });
 }
