@@ -50,7 +50,8 @@ struct Table {
   ProjectionOptions projection;
   std::shared_ptr<const QtFile> file;  // when loaded: its spec's data files are found from it
   std::optional<Brdf> brdf;            // when tabulated here: the BRDF itself
-  std::string source;                  // when tabulated here from a spec file: its path
+  std::string source;      // the spec file it was tabulated from (its provenance's, if loaded)
+  std::string parameters;  // the options it was tabulated with, as provenance JSON
 };
 
 struct Captures {
@@ -166,7 +167,7 @@ Tree own(PackedTree tree) {
 
 Table own(BrdfTable table, const ProjectionOptions& projection) {
   auto held = std::make_shared<const BrdfTable>(std::move(table));
-  return {held, held->view(), held->model, held->spec, projection, nullptr, std::nullopt, ""};
+  return {held, held->view(), held->model, held->spec, projection, nullptr, std::nullopt, "", "{}"};
 }
 
 // The BRDF that shades a capture set's lights: the one the table tabulates, from its spec;
@@ -343,12 +344,18 @@ PYBIND11_MODULE(basis, m) {
            })
       .def("table",
            [](const File& f) {
+             // Written back, it names the same spec file and options, so that a measured
+             // BRDF's data files are still found from it.
+             const Provenance p = f.file->provenance();
              return Table{f.file,
                           f.file->brdf_table(),
                           f.file->brdf_model(),
                           f.file->brdf_spec(),
                           f.file->projection(),
-                          f.file};
+                          f.file,
+                          std::nullopt,
+                          p.sources.empty() ? std::string() : p.sources.front(),
+                          p.parameters.empty() ? std::string("{}") : p.parameters};
            })
       .def("captures", [](const File& f) {
         return Captures{f.file, f.file->captures(), f.file->projection(), std::nullopt};
@@ -419,12 +426,14 @@ PYBIND11_MODULE(basis, m) {
         Table out = own(std::move(table), options.projection);
         out.brdf = b.brdf;
         out.source = b.source;
+        out.parameters = table_parameters(options);
         return out;
       },
       py::arg("brdf"), py::arg("wo_res") = py::none(), py::arg("wi_res") = py::none(),
       py::arg("tolerance") = py::none(), py::arg("tolerance_floor") = 0.2, py::arg("tilt") = true,
       py::arg("wo_derivatives") = true, py::arg("threads") = 0,
-      "A BRDF table with brdf2qt's defaults (outgoing resolution from the lobe's width).");
+      "A BRDF table. Each option is the argument when given, else the spec's \"table\" block, else "
+      "brdf2qt's default (outgoing resolution from the lobe's width, 128 texels, tolerance 5 %).");
 
   m.def(
       "reflect",
@@ -553,7 +562,7 @@ PYBIND11_MODULE(basis, m) {
         if (py::isinstance<Table>(what)) {
           const Table& t = what.cast<const Table&>();
           bytes = encode_brdf_table(t.view, t.model, t.spec, t.projection,
-                                    python_provenance("{}", t.source));
+                                    python_provenance(t.parameters, t.source));
         } else if (py::isinstance<Captures>(what)) {
           const Captures& c = what.cast<const Captures&>();
           bytes = encode_capture_set(

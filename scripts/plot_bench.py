@@ -139,9 +139,6 @@ def main(folder):
         lookups(lookups_csv, os.path.join(folder, "lookups.png"))
 
 
-if __name__ == "__main__":
-    main(sys.argv[1])
-
 
 def summary(folder):
     """DIR/summary.md: per panel, each method's best error, and the fastest convolution (and
@@ -149,8 +146,10 @@ def summary(folder):
     results = os.path.join(folder, "results.csv")
     rows = list(csv.DictReader(open(results))) if os.path.exists(results) else []
     methods = list(dict.fromkeys(r["method"] for r in rows))
-    lines = ["| BRDF | light | method | best error | ns at ≤1 % | ns at ≤2 % | ns at ≤5 % | bytes at ≤2 % |",
-             "|---|---|---|---|---|---|---|---|"]
+    lines = []
+    if rows:  # a full run's panels; a --lookups-only run has none
+        lines = ["| BRDF | light | method | best error | ns at ≤1 % | ns at ≤2 % | ns at ≤5 % | bytes at ≤2 % |",
+                 "|---|---|---|---|---|---|---|---|"]
     for brdf in dict.fromkeys(r["brdf"] for r in rows):
         for light in dict.fromkeys(r["light"] for r in rows):
             for method in methods:
@@ -169,7 +168,8 @@ def summary(folder):
                              f"{fastest(0.02)} | {fastest(0.05)} | {fastest(0.02, 'bytes')} |")
     sources = os.path.join(folder, "lookup_sources.csv")
     if os.path.exists(sources):
-        lines += ["", "Lookups between table entries, largest relative error (%) by source:", "",
+        lines += [""] if lines else []
+        lines += ["Lookups between table entries, largest relative error (%) by source:", "",
                   "| BRDF | entries | texels | table tree | capture tree | interpolation | total | "
                   "bilinear total |", "|---|---|---|---|---|---|---|---|"]
         for r in csv.DictReader(open(sources)):
@@ -180,5 +180,6 @@ def summary(folder):
     open(os.path.join(folder, "summary.md"), "w").write("\n".join(lines) + "\n")
 
 
-if __name__ == "__main__" and len(sys.argv) > 1:
+if __name__ == "__main__":
+    main(sys.argv[1])
     summary(sys.argv[1])

@@ -10,6 +10,7 @@
 #include "basis/core/projection.h"
 #include "basis/core/version.h"
 #include "basis/format/qt_file.h"
+#include "basis/format/qt_recipe.h"
 #include "cli.h"
 
 int main(int argc, char** argv) {
@@ -96,17 +97,9 @@ int main(int argc, char** argv) {
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
-    const nlohmann::ordered_json parameters = {{"wo_res", options.wo_resolution},
-                                               {"wi_res", options.wi_resolution},
-                                               {"tolerance", options.projection.tolerance},
-                                               {"tolerance_floor", tolerance_floor},
-                                               {"wo_derivatives", options.wo_derivatives},
-                                               {"mode", absolute ? "absolute" : "relative"},
-                                               {"tilt_derivatives", options.tilt_derivatives},
-                                               {"bounds", bounds}};
-    const auto bytes =
-        basis::encode_brdf_table(table.view(), spec.model, spec.text, options.projection,
-                                 {"brdf2qt", basis::kVersion, parameters.dump(), {spec_path}});
+    const auto bytes = basis::encode_brdf_table(
+        table.view(), spec.model, spec.text, options.projection,
+        {"brdf2qt", basis::kVersion, basis::table_parameters(options), {spec_path}});
     basis::write_qt(output, bytes);
     if (quiet) return;
     const std::size_t nodes = table.trees.view().total_nodes();

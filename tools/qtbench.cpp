@@ -68,7 +68,7 @@ int main(int argc, char** argv) {
   app.add_flag("--quick", quick, "three panels, one light, fewer parameters: under a minute");
   app.add_flag("--lookups-only", lookups_only,
                "only the study of lookups between table entries (lookups.csv, "
-               "lookup_sources.csv, lookups.png): about 35 s, 5 s with --quick");
+               "lookup_sources.csv, lookups.png, summary.md): about 35 s, 5 s with --quick");
   app.add_option("--map", map,
                  "lat-long HDR map with a sun (default: the Poly Haven sunrise from Debian's "
                  "blender-data)");

@@ -28,6 +28,19 @@ std::string shortest(double v) {
 
 }  // namespace
 
+std::string table_parameters(const BrdfTableOptions& options) {
+  const bool absolute = options.projection.mode == ProjectionOptions::Mode::absolute;
+  const nlohmann::ordered_json j = {{"wo_res", options.wo_resolution},
+                                    {"wi_res", options.wi_resolution},
+                                    {"tolerance", options.projection.tolerance},
+                                    {"tolerance_floor", options.projection.local_floor},
+                                    {"wo_derivatives", options.wo_derivatives},
+                                    {"mode", absolute ? "absolute" : "relative"},
+                                    {"tilt_derivatives", options.tilt_derivatives},
+                                    {"bounds", options.bounds == BoundKind::linf ? "linf" : "l2"}};
+  return j.dump();
+}
+
 std::string capture_parameters(const CaptureRecipe& r) {
   const bool apart = r.options.compact_lights == CaptureOptions::CompactLights::apart;
   const std::string constant =

@@ -182,19 +182,32 @@ def test_errors_are_exceptions_with_one_line(tmp_path):
 
 
 def test_a_specs_table_block_is_taken_as_brdf2qt_takes_it(tmp_path):
+    # A tolerance far from the default 5 %, so that entries cut at the default would differ.
     spec = {"model": "phong", "kd": 0.3, "ks": 0.5, "exponent": 20,
-            "table": {"wo_res": 5, "wi_res": 8, "tolerance": 0.1}}
+            "table": {"wo_res": 5, "wi_res": 8, "tolerance": 0.5}}
     path = tmp_path / "blocked.json"
     path.write_text(json.dumps(spec))
     tool("brdf2qt", path.name, "-q", cwd=tmp_path)
     by_tool = basis.load(str(tmp_path / "blocked.qt")).table()
-    table = basis.tabulate(basis.Brdf.from_file(str(path)))
+    brdf = basis.Brdf.from_file(str(path))
+    table = basis.tabulate(brdf)
     assert table.wo_resolution == by_tool.wo_resolution == 5
     for i, j in ((0, 0), (2, 2), (4, 1)):
         assert np.array_equal(table.entry(i, j).words, by_tool.entry(i, j).words)
-    # An argument overrides the block.
-    assert basis.tabulate(basis.Brdf.from_file(str(path)), wo_res=3).wo_resolution == 3
-    # The spec file is named in the written table's provenance.
+    # Arguments override the block.
+    assert basis.tabulate(brdf, wo_res=3).wo_resolution == 3
+    assert basis.tabulate(brdf, wi_res=16).entry(0, 0).resolution == 16
+    finer = basis.tabulate(brdf, tolerance=0.05)
+    assert finer.entry(2, 2).node_count > table.entry(2, 2).node_count
+    # A written table names its spec and options as brdf2qt's does.
     basis.write(str(tmp_path / "written.qt"), table)
-    info = json.loads(tool("qtinfo", tmp_path / "written.qt", "--json"))
-    assert str(path) in json.dumps(info)
+    written = json.loads(tool("qtinfo", tmp_path / "written.qt", "--json"))
+    made = json.loads(tool("qtinfo", tmp_path / "blocked.qt", "--json"))
+    assert written["provenance"]["sources"] == [str(path)]
+    assert json.loads(written["provenance"]["parameters"]) == json.loads(
+        made["provenance"]["parameters"])
+    # Loaded and written back, a table keeps them.
+    basis.write(str(tmp_path / "again.qt"), basis.load(str(tmp_path / "blocked.qt")).table())
+    again = json.loads(tool("qtinfo", tmp_path / "again.qt", "--json"))
+    assert again["provenance"]["sources"] == made["provenance"]["sources"]
+    assert again["provenance"]["parameters"] == made["provenance"]["parameters"]

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "basis/brdf/brdf_spec.h"
+#include "basis/brdf/brdf_table.h"
 #include "basis/format/qt_file.h"
 #include "basis/lighting/capture.h"
 
@@ -15,6 +16,10 @@ namespace basis {
 // The BRDF of a table file, parsed from the spec it stores (data files such as MERL binaries
 // are found relative to the spec's original folder). Throws FileError.
 BrdfSpec table_brdf(const QtFile& table);
+
+// The options a table was tabulated with, as the parameters (JSON text) of its provenance:
+// wo_res, wi_res, tolerance, tolerance_floor, wo_derivatives, mode, tilt_derivatives, bounds.
+std::string table_parameters(const BrdfTableOptions& options);
 
 // What a capture set was made from: light, scene, capture and projection options.
 struct CaptureRecipe {
