@@ -66,16 +66,9 @@ struct File {
 };
 
 struct PyBrdf {
-  Brdf brdf;
-  std::string model, spec;
-  std::string source;                               // the spec file, empty for a spec given as text
-  std::optional<int> wo_resolution, wi_resolution;  // the spec's "table" block
-  std::optional<double> tolerance;
+  BrdfSpec spec;       // the BRDF, its model, the spec's text and its "table" block
+  std::string source;  // the spec file, empty for a spec given as text
 };
-
-PyBrdf from_spec(const BrdfSpec& s, const std::string& source) {
-  return {s.brdf, s.model, s.text, source, s.wo_resolution, s.wi_resolution, s.tolerance};
-}
 
 Provenance python_provenance(const std::string& parameters = "{}", const std::string& source = "") {
   Provenance p{"basis (Python)", kVersion, parameters, {}};
@@ -373,14 +366,18 @@ PYBIND11_MODULE(basis, m) {
   py::class_<PyBrdf>(m, "Brdf", "An analytic or measured BRDF, from a JSON spec (brdf2qt's).")
       .def_static(
           "from_file",
-          [](const std::string& path) { return from_spec(read_brdf_spec(path), path); },
+          [](const std::string& path) {
+            return PyBrdf{read_brdf_spec(path), path};
+          },
           py::arg("path"))
       .def_static(
           "from_json",
-          [](const std::string& text) { return from_spec(parse_brdf_spec(text, "spec", "."), ""); },
+          [](const std::string& text) {
+            return PyBrdf{parse_brdf_spec(text, "spec", "."), ""};
+          },
           py::arg("text"))
-      .def_property_readonly("model", [](const PyBrdf& b) { return b.model; })
-      .def_property_readonly("channels", [](const PyBrdf& b) { return channel_count(b.brdf); })
+      .def_property_readonly("model", [](const PyBrdf& b) { return b.spec.model; })
+      .def_property_readonly("channels", [](const PyBrdf& b) { return channel_count(b.spec.brdf); })
       .def(
           "evaluate",
           [](const PyBrdf& b,
@@ -393,7 +390,7 @@ PYBIND11_MODULE(basis, m) {
             auto a = out.mutable_unchecked<2>();
             for (std::size_t k = 0; k < i.size(); ++k) {
               const Color f =
-                  evaluate(b.brdf, i[k].normalized(), o[o.size() == 1 ? 0 : k].normalized());
+                  evaluate(b.spec.brdf, i[k].normalized(), o[o.size() == 1 ? 0 : k].normalized());
               for (int c = 0; c < 3; ++c)
                 a(py::ssize_t(k), c) = f[c];
             }
@@ -401,9 +398,9 @@ PYBIND11_MODULE(basis, m) {
           },
           py::arg("wi"), py::arg("wo"),
           "f(wi, wo) per channel for N x 3 arrays of directions in the local frame (z the normal).")
-      .def_property_readonly("lobe_width", [](const PyBrdf& b) { return lobe_width(b.brdf); })
+      .def_property_readonly("lobe_width", [](const PyBrdf& b) { return lobe_width(b.spec.brdf); })
       .def_property_readonly("default_wo_resolution",
-                             [](const PyBrdf& b) { return default_wo_resolution(b.brdf); });
+                             [](const PyBrdf& b) { return default_wo_resolution(b.spec.brdf); });
 
   m.def(
       "tabulate",
@@ -413,18 +410,20 @@ PYBIND11_MODULE(basis, m) {
         // Arguments, else the spec's "table" block, else the defaults, as brdf2qt takes them.
         BrdfTableOptions options;
         options.wo_resolution =
-            wo_res.value_or(b.wo_resolution.value_or(default_wo_resolution(b.brdf)));
-        options.wi_resolution = wi_res.value_or(b.wi_resolution.value_or(128));
-        options.projection.tolerance = tolerance.value_or(b.tolerance.value_or(0.05));
+            wo_res.value_or(b.spec.wo_resolution.value_or(default_wo_resolution(b.spec.brdf)));
+        options.wi_resolution =
+            wi_res.value_or(b.spec.wi_resolution.value_or(options.wi_resolution));
+        options.projection.tolerance =
+            tolerance.value_or(b.spec.tolerance.value_or(options.projection.tolerance));
         options.projection.local_floor = tolerance_floor;
         options.tilt_derivatives = tilt;
         options.wo_derivatives = wo_derivatives;
         py::gil_scoped_release release;
         tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
-        BrdfTable table = arena.execute([&] { return tabulate_brdf(b.brdf, options); });
-        table.spec = b.spec;
+        BrdfTable table = arena.execute([&] { return tabulate_brdf(b.spec.brdf, options); });
+        table.spec = b.spec.text;
         Table out = own(std::move(table), options.projection);
-        out.brdf = b.brdf;
+        out.brdf = b.spec.brdf;
         out.source = b.source;
         out.parameters = table_parameters(options);
         return out;

@@ -139,7 +139,6 @@ def main(folder):
         lookups(lookups_csv, os.path.join(folder, "lookups.png"))
 
 
-
 def summary(folder):
     """DIR/summary.md: per panel, each method's best error, and the fastest convolution (and
     its storage) reaching 1 %, 2 % and 5 % error."""
