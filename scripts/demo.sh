@@ -5,6 +5,10 @@
 #               Debian's blender-data), traced with Embree
 #   qtconvolve  reflected radiance of both BRDFs at every point, with bounds and timings
 #   qtinfo      what each file holds, and pictures of a table entry and of a capture
+#   qtrender    data/scene.json (the scene in Lambert + Phong 100 under the sunrise) through the
+#               radiance cache, by Monte Carlo in the same time and by converged Monte Carlo,
+#               with a side-by-side picture and enlarged insets (the paper's Figure 1) and the
+#               cache's time split against a dense-grid cache (Figure 7)
 # Results, pictures and a summary go to ./out.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -36,6 +40,8 @@ step "qtconvolve phong x captures" \
 step "qtconvolve ggx x captures (wo 30 deg)" \
   $bin/qtconvolve out/ggx.qt out/captures.qt --wo 0.5,0,0.866 --time --csv \
   --png out/ggx_radiance.png >out/ggx_radiance.csv 2>out/ggx_time.txt
+step "qtrender cache, same-time mc, reference" \
+  /usr/bin/python3 scripts/render_study.py --main-job out/render >out/render_summary.txt
 $bin/qtinfo out/phong.qt --png out/phong_entry.png --entry 28,18 >out/phong_info.txt
 $bin/qtinfo out/captures.qt --png out/capture.png --index 0 >out/captures_info.txt
 
@@ -50,7 +56,11 @@ $bin/qtinfo out/captures.qt --png out/capture.png --index 0 >out/captures_info.t
   echo "first points (index, r, g, b, bounds):"
   sed -n 2,4p out/phong_radiance.csv
   echo
+  echo "render: $(cat out/render_summary.txt)"
+  echo
   echo "pictures: out/phong_entry.png (a table entry), out/capture.png (a capture),"
-  echo "          out/phong_radiance.png, out/ggx_radiance.png (the points seen from above)"
+  echo "          out/phong_radiance.png, out/ggx_radiance.png (the points seen from above),"
+  echo "          out/render/figure1.png (cache, same-time Monte Carlo, reference; insets),"
+  echo "          out/render/figure7.png (where the cache's time goes, trees against grids)"
 } >>"$summary"
 cat "$summary"

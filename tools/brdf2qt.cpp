@@ -72,14 +72,13 @@ int main(int argc, char** argv) {
 
   return basis::cli::run(app, argc, argv, [&] {
     const basis::BrdfSpec spec = basis::read_brdf_spec(spec_path);
-    basis::BrdfTableOptions options;
-    options.wo_resolution =
-        wo_res ? wo_res : spec.wo_resolution.value_or(basis::default_wo_resolution(spec.brdf));
-    options.wi_resolution = wi_res ? wi_res : spec.wi_resolution.value_or(options.wi_resolution);
+    basis::BrdfTableOptions options = basis::table_options(spec);
+    if (wo_res) options.wo_resolution = wo_res;
+    if (wi_res) options.wi_resolution = wi_res;
     if (!basis::is_valid_resolution(options.wi_resolution))
       throw basis::cli::UsageError("--wi-res must be a power of two from 2 to 512, got " +
                                    std::to_string(options.wi_resolution));
-    options.projection.tolerance = tolerance >= 0 ? tolerance : spec.tolerance.value_or(0.05);
+    if (tolerance >= 0) options.projection.tolerance = tolerance;
     options.projection.local_floor = tolerance_floor;
     if (absolute) options.projection.mode = basis::ProjectionOptions::Mode::absolute;
     options.tilt_derivatives = !no_tilt;

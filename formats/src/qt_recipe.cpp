@@ -28,6 +28,14 @@ std::string shortest(double v) {
 
 }  // namespace
 
+BrdfTableOptions table_options(const BrdfSpec& spec) {
+  BrdfTableOptions options;
+  options.wo_resolution = spec.wo_resolution.value_or(default_wo_resolution(spec.brdf));
+  options.wi_resolution = spec.wi_resolution.value_or(options.wi_resolution);
+  options.projection.tolerance = spec.tolerance.value_or(options.projection.tolerance);
+  return options;
+}
+
 std::string table_parameters(const BrdfTableOptions& options) {
   const bool absolute = options.projection.mode == ProjectionOptions::Mode::absolute;
   const nlohmann::ordered_json j = {{"wo_res", options.wo_resolution},

@@ -4,118 +4,21 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
-#include <set>
 #include <sstream>
 
 #include "basis/brdf/merl.h"
 #include "basis/brdf/rgl.h"
 #include "basis/core/file_error.h"
+#include "basis/io/json_fields.h"
 
 namespace basis {
 
-namespace {
-
 using nlohmann::json;
-
-// Errors name the spec, the line of the field (found in the text) and the field.
-class SpecReader {
- public:
-  SpecReader(const std::string& text, const std::string& name) : text_(text), name_(name) {}
-
-  [[noreturn]] void fail(const std::string& field, const std::string& problem) const {
-    throw FileError(name_ + ":" + std::to_string(line_of(field)) + ": " +
-                    (field.empty() ? problem : "field '" + field + "': " + problem));
-  }
-
-  int line_of(const std::string& field) const {
-    if (field.empty()) return 1;
-    const std::string key = "\"" + field.substr(field.rfind('.') + 1) + "\"";
-    std::size_t at = text_.find(key);
-    if (field.find('.') != std::string::npos) {  // nested: after the parent's key
-      const std::size_t parent = text_.find("\"" + field.substr(0, field.find('.')) + "\"");
-      if (parent != std::string::npos) at = text_.find(key, parent);
-    }
-    if (at == std::string::npos) return 1;
-    return 1 + int(std::count(text_.begin(), text_.begin() + std::ptrdiff_t(at), '\n'));
-  }
-
-  double number(const json& object, const std::string& key, const std::string& path, double lo,
-                double hi) const {
-    if (!object.contains(key))
-      fail(path, "missing (a number from " + show(lo) + " to " + show(hi) + ")");
-    const json& v = object.at(key);
-    if (!v.is_number()) fail(path, "must be a number, got " + std::string(v.type_name()));
-    const double x = v.get<double>();
-    if (!std::isfinite(x) || x < lo || x > hi)
-      fail(path, "must be from " + show(lo) + " to " + show(hi) + ", got " + show(x));
-    return x;
-  }
-
-  Color color(const json& object, const std::string& key, const std::string& path, double hi,
-              std::optional<Color> fallback = std::nullopt) const {
-    if (!object.contains(key)) {
-      if (fallback) return *fallback;
-      fail(path, "missing (a number or [r, g, b] from 0 to " + show(hi) + ")");
-    }
-    const json& v = object.at(key);
-    if (v.is_number()) {
-      const double x = number(object, key, path, 0, hi);
-      return {x, x, x};
-    }
-    if (!v.is_array() || v.size() != 3)
-      fail(path, "must be a number or an array [r, g, b] of three numbers");
-    Color c;
-    for (int i = 0; i < 3; ++i) {
-      if (!v[i].is_number()) fail(path, "must hold three numbers");
-      c[i] = v[i].get<double>();
-      if (!std::isfinite(c[i]) || c[i] < 0 || c[i] > hi)
-        fail(path, "components must be from 0 to " + show(hi) + ", got " + show(c[i]));
-    }
-    return c;
-  }
-
-  void only(const json& object, const std::set<std::string>& allowed,
-            const std::string& where) const {
-    for (const auto& [key, value] : object.items())
-      if (!allowed.count(key)) {
-        std::string list;
-        for (const std::string& a : allowed)
-          list += (list.empty() ? "" : ", ") + a;
-        fail(where.empty() ? key : where + "." + key,
-             "unknown field (expected one of: " + list + ")");
-      }
-  }
-
-  static std::string show(double x) {
-    std::ostringstream s;
-    s << x;
-    return s.str();
-  }
-
- private:
-  const std::string& text_;
-  const std::string& name_;
-};
-
-}  // namespace
 
 BrdfSpec parse_brdf_spec(const std::string& text, const std::string& name,
                          const std::string& folder) {
-  SpecReader r(text, name);
-  json root;
-  try {
-    root = json::parse(text);
-  } catch (const json::parse_error& e) {
-    const std::size_t at = std::min<std::size_t>(e.byte > 0 ? e.byte - 1 : 0, text.size());
-    const int line = 1 + int(std::count(text.begin(), text.begin() + std::ptrdiff_t(at), '\n'));
-    std::string what = e.what();
-    const std::size_t colon = what.find(": ", what.find("parse error"));
-    throw FileError(name + ":" + std::to_string(line) + ": invalid JSON: " +
-                    (colon == std::string::npos ? what : what.substr(colon + 2)));
-  } catch (const json::out_of_range&) {
-    // A number too large for a double, e.g. 1e400 (found by fuzzing).
-    throw FileError(name + ": invalid JSON: a number is out of range");
-  }
+  const JsonFields r(text, name);
+  const json root = r.parse();
   if (!root.is_object()) r.fail("", "a BRDF spec is a JSON object {\"model\": ..., ...}");
   if (!root.contains("model") || !root["model"].is_string())
     r.fail("model", "missing or not a string (lambert, phong, blinn-phong, ward, ggx, merl, rgl)");

@@ -21,7 +21,8 @@ namespace {
 
 // Phase 1: texel averages from the strata's rays. A ray that escapes takes the smooth part of
 // the environment averaged over its stratum, from m_u x m_v jittered points with about one per
-// map pixel the stratum spans along each side (1 to 8); a ray that hits takes the emission.
+// map pixel the stratum spans along each side (1 to options.stratum_subsamples); a ray that
+// hits takes the emission.
 // Rays are traced in batches of a row of texels.
 void trace_strata(const Environment& environment, const RayScene* scene, const Vec3& origin,
                   const Frame& frame, const CaptureOptions& options, std::uint64_t stream,
@@ -43,7 +44,14 @@ void trace_strata(const Environment& environment, const RayScene* scene, const V
         const Vec2 uv = corner + Vec2(unit_random(2 * id), unit_random(2 * id + 1)) * stratum;
         rays[r] = {origin, frame.to_world(square_to_cosine_hemisphere(uv)).normalized()};
       }
-    if (scene) {
+    if (scene && options.occluder_distances) {
+      scene->trace_nearest(rays, hits);
+      for (const RayHit& h : hits)
+        if (h.hit && h.distance > 0) {
+          counts.inverse_distance_sum += 1.0 / h.distance;
+          ++counts.occluded;
+        }
+    } else if (scene) {
       scene->trace(rays, hits);
     } else {
       std::fill(hits.begin(), hits.end(), RayHit{});
@@ -57,8 +65,9 @@ void trace_strata(const Environment& environment, const RayScene* scene, const V
         const Vec3 c = square_to_cosine_hemisphere(centre);
         const Vec3 du = square_to_cosine_hemisphere(centre + Vec2(stratum, 0));
         const Vec3 dv = square_to_cosine_hemisphere(centre + Vec2(0, stratum));
-        mu = std::clamp(int(std::ceil(angle_between(c, du) / pixel_angle)), 1, 8);
-        mv = std::clamp(int(std::ceil(angle_between(c, dv) / pixel_angle)), 1, 8);
+        const int most = std::max(1, options.stratum_subsamples);
+        mu = std::clamp(int(std::ceil(angle_between(c, du) / pixel_angle)), 1, most);
+        mv = std::clamp(int(std::ceil(angle_between(c, dv) / pixel_angle)), 1, most);
       }
       Color sum{0, 0, 0};
       for (int s = 0; s < k * k; ++s, ++r) {

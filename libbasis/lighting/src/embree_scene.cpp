@@ -61,65 +61,83 @@ EmbreeScene::~EmbreeScene() {
   if (state_->device) rtcReleaseDevice(state_->device);
 }
 
-void EmbreeScene::trace(std::span<const Ray> rays, std::span<RayHit> hits) const {
+namespace {
+
+RTCRay embree_ray(const Ray& r, unsigned id) {
+  RTCRay q;
+  q.org_x = float(r.origin.x());
+  q.org_y = float(r.origin.y());
+  q.org_z = float(r.origin.z());
+  q.dir_x = float(r.direction.x());
+  q.dir_y = float(r.direction.y());
+  q.dir_z = float(r.direction.z());
+  q.tnear = 0;
+  q.tfar = std::numeric_limits<float>::infinity();
+  q.time = 0;
+  q.mask = ~0u;
+  q.id = id;
+  q.flags = 0;
+  return q;
+}
+
+constexpr std::size_t kBatch = 256;
+
+// Calls found(index, hit) for every ray with its nearest hit (geomID invalid when it escapes).
+template <typename Found>
+void intersect_batches(RTCScene scene, std::span<const Ray> rays, Found&& found) {
   _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
   _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
-  constexpr std::size_t kBatch = 256;
-  if (!state_->emitters) {  // occlusion only
-    RTCRay batch[kBatch];
-    for (std::size_t start = 0; start < rays.size(); start += kBatch) {
-      const std::size_t count = std::min(kBatch, rays.size() - start);
-      for (std::size_t i = 0; i < count; ++i) {
-        const Ray& r = rays[start + i];
-        RTCRay& q = batch[i];
-        q.org_x = float(r.origin.x());
-        q.org_y = float(r.origin.y());
-        q.org_z = float(r.origin.z());
-        q.dir_x = float(r.direction.x());
-        q.dir_y = float(r.direction.y());
-        q.dir_z = float(r.direction.z());
-        q.tnear = 0;
-        q.tfar = std::numeric_limits<float>::infinity();
-        q.time = 0;
-        q.mask = ~0u;
-        q.id = unsigned(i);
-        q.flags = 0;
-      }
-      rtcOccluded1M(state_->scene, &context, batch, unsigned(count), sizeof(RTCRay));
-      for (std::size_t i = 0; i < count; ++i)
-        hits[start + i] = {batch[i].tfar < 0, {0, 0, 0}};
-    }
-    return;
-  }
   std::vector<RTCRayHit> batch(kBatch);
   for (std::size_t start = 0; start < rays.size(); start += kBatch) {
     const std::size_t count = std::min(kBatch, rays.size() - start);
     for (std::size_t i = 0; i < count; ++i) {
-      const Ray& r = rays[start + i];
-      RTCRayHit& q = batch[i];
-      q.ray.org_x = float(r.origin.x());
-      q.ray.org_y = float(r.origin.y());
-      q.ray.org_z = float(r.origin.z());
-      q.ray.dir_x = float(r.direction.x());
-      q.ray.dir_y = float(r.direction.y());
-      q.ray.dir_z = float(r.direction.z());
-      q.ray.tnear = 0;
-      q.ray.tfar = std::numeric_limits<float>::infinity();
-      q.ray.time = 0;
-      q.ray.mask = ~0u;
-      q.ray.id = unsigned(i);
-      q.ray.flags = 0;
-      q.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-      q.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+      batch[i].ray = embree_ray(rays[start + i], unsigned(i));
+      batch[i].hit.geomID = RTC_INVALID_GEOMETRY_ID;
+      batch[i].hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
     }
-    rtcIntersect1M(state_->scene, &context, batch.data(), unsigned(count), sizeof(RTCRayHit));
-    for (std::size_t i = 0; i < count; ++i) {
-      const bool hit = batch[i].hit.geomID != RTC_INVALID_GEOMETRY_ID;
-      hits[start + i] = {hit, hit ? state_->emission[batch[i].hit.primID] : Color{0, 0, 0}};
-    }
+    rtcIntersect1M(scene, &context, batch.data(), unsigned(count), sizeof(RTCRayHit));
+    for (std::size_t i = 0; i < count; ++i)
+      found(start + i, batch[i]);
   }
+}
+
+}  // namespace
+
+void EmbreeScene::trace(std::span<const Ray> rays, std::span<RayHit> hits) const {
+  if (state_->emitters) return trace_nearest(rays, hits);
+  _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
+  _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRay batch[kBatch];
+  for (std::size_t start = 0; start < rays.size(); start += kBatch) {
+    const std::size_t count = std::min(kBatch, rays.size() - start);
+    for (std::size_t i = 0; i < count; ++i)
+      batch[i] = embree_ray(rays[start + i], unsigned(i));
+    rtcOccluded1M(state_->scene, &context, batch, unsigned(count), sizeof(RTCRay));
+    for (std::size_t i = 0; i < count; ++i)
+      hits[start + i] = {batch[i].tfar < 0, {0, 0, 0}};
+  }
+}
+
+void EmbreeScene::trace_nearest(std::span<const Ray> rays, std::span<RayHit> hits) const {
+  intersect_batches(state_->scene, rays, [&](std::size_t i, const RTCRayHit& q) {
+    const bool hit = q.hit.geomID != RTC_INVALID_GEOMETRY_ID;
+    hits[i] = {hit, hit ? state_->emission[q.hit.primID] : Color{0, 0, 0},
+               hit ? q.ray.tfar : std::numeric_limits<float>::infinity()};
+  });
+}
+
+void EmbreeScene::intersect(std::span<const Ray> rays, std::span<RayIntersection> hits) const {
+  intersect_batches(state_->scene, rays, [&](std::size_t i, const RTCRayHit& q) {
+    if (q.hit.geomID == RTC_INVALID_GEOMETRY_ID) {
+      hits[i] = {};
+      return;
+    }
+    hits[i] = {true, q.ray.tfar, q.hit.primID, q.hit.u, q.hit.v};
+  });
 }
 
 }  // namespace basis

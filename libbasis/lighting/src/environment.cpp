@@ -171,12 +171,17 @@ Color Environment::pixel(int row, int column) const {
   return {p[0], p[1], p[2]};
 }
 
-Color Environment::radiance(const Vec3& w) const {
-  if (constant_) return pixel(0, 0);
+std::array<int, 2> Environment::pixel_at(const Vec3& w) const {
+  if (constant_) return {0, 0};
   const double c = std::cos(rotation_), s = std::sin(rotation_);
   const Vec3 map(c * w.x() + s * w.y(), -s * w.x() + c * w.y(), w.z());
   const Vec2 p = direction_to_latlong(map, width_, height_);
-  return pixel(std::clamp(int(p.y()), 0, height_ - 1), std::clamp(int(p.x()), 0, width_ - 1));
+  return {std::clamp(int(p.y()), 0, height_ - 1), std::clamp(int(p.x()), 0, width_ - 1)};
+}
+
+Color Environment::radiance(const Vec3& w) const {
+  const auto [row, column] = pixel_at(w);
+  return pixel(row, column);
 }
 
 Color Environment::smooth_radiance(const Vec3& w) const {

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
 namespace basis {
@@ -81,6 +82,42 @@ Vec3 TriangleMesh::normal(std::size_t t) const {
       .normalized();
 }
 
+Vec3 TriangleMesh::point(std::size_t t, double u, double v) const {
+  const auto& f = triangles[t];
+  return vertex(*this, f[0]) * (1 - u - v) + vertex(*this, f[1]) * u + vertex(*this, f[2]) * v;
+}
+
+Vec3 TriangleMesh::shading_normal(std::size_t t, double u, double v) const {
+  if (corner_normals.empty()) return normal(t);
+  const auto& c = corner_normals[t];
+  const Vec3 n = Vec3(c[0][0], c[0][1], c[0][2]) * (1 - u - v) +
+                 Vec3(c[1][0], c[1][1], c[1][2]) * u + Vec3(c[2][0], c[2][1], c[2][2]) * v;
+  return n.norm() > 1e-12 ? n.normalized() : normal(t);
+}
+
+void TriangleMesh::append(const TriangleMesh& other) {
+  const auto offset = std::uint32_t(vertices.size());
+  // Normals are kept per corner for every triangle as soon as one of the meshes has them.
+  auto face_corners = [](const TriangleMesh& m, std::size_t t) {
+    const Vec3 n = m.normal(t);
+    const std::array<float, 3> c{float(n.x()), float(n.y()), float(n.z())};
+    return std::array<std::array<float, 3>, 3>{c, c, c};
+  };
+  if (corner_normals.empty() && !other.corner_normals.empty())
+    for (std::size_t t = 0; t < triangles.size(); ++t)
+      corner_normals.push_back(face_corners(*this, t));
+  vertices.insert(vertices.end(), other.vertices.begin(), other.vertices.end());
+  for (std::size_t t = 0; t < other.triangles.size(); ++t) {
+    const auto& f = other.triangles[t];
+    triangles.push_back({f[0] + offset, f[1] + offset, f[2] + offset});
+    if (!corner_normals.empty())
+      corner_normals.push_back(other.corner_normals.empty() ? face_corners(other, t)
+                                                            : other.corner_normals[t]);
+  }
+  emission.insert(emission.end(), other.emission.begin(), other.emission.end());
+  dropped_degenerate += other.dropped_degenerate;
+}
+
 TriangleMesh read_obj(const std::string& path) {
   if (std::filesystem::is_directory(path))
     throw FileError(path + ": is a directory, not an OBJ file");
@@ -108,6 +145,17 @@ TriangleMesh read_obj(const std::string& path) {
         throw FileError(path + ": vertex " + std::to_string(i + 1) + " is NaN or infinite");
       mesh.vertices[i][k] = v;
     }
+  // Vertex normals: unit, or absent where not finite or zero.
+  const std::size_t normal_count = attrib.normals.size() / 3;
+  std::vector<std::optional<std::array<float, 3>>> normals(normal_count);
+  for (std::size_t i = 0; i < normal_count; ++i) {
+    const Vec3 n(attrib.normals[3 * i], attrib.normals[3 * i + 1], attrib.normals[3 * i + 2]);
+    if (n.allFinite() && n.norm() > 1e-12) {
+      const Vec3 u = n.normalized();
+      normals[i] = std::array<float, 3>{float(u.x()), float(u.y()), float(u.z())};
+    }
+  }
+  const bool has_normals = normal_count > 0;
   const auto& materials = reader.GetMaterials();
   for (const tinyobj::shape_t& shape : reader.GetShapes()) {
     const auto& indices = shape.mesh.indices;
@@ -116,7 +164,11 @@ TriangleMesh read_obj(const std::string& path) {
         throw FileError(path + ": face of " + std::to_string(shape.mesh.num_face_vertices[f]) +
                         " vertices left after triangulation");
       std::array<std::uint32_t, 3> t{};
+      std::array<std::optional<std::array<float, 3>>, 3> corner;
       for (int k = 0; k < 3; ++k) {
+        const int normal_index = indices[3 * f + k].normal_index;
+        if (normal_index >= 0 && std::size_t(normal_index) < normal_count)
+          corner[k] = normals[std::size_t(normal_index)];
         const int index = indices[3 * f + k].vertex_index;
         if (index < 0 || std::size_t(index) >= vertex_count)
           throw FileError(path + ": shape '" + shape.name + "' face " + std::to_string(f + 1) +
@@ -137,6 +189,15 @@ TriangleMesh read_obj(const std::string& path) {
         mesh.triangles.pop_back();
         mesh.emission.pop_back();
         ++mesh.dropped_degenerate;
+        continue;
+      }
+      if (has_normals) {
+        const Vec3 n = mesh.normal(mesh.triangles.size() - 1);
+        std::array<std::array<float, 3>, 3> corners;
+        for (int k = 0; k < 3; ++k)
+          corners[k] =
+              corner[k].value_or(std::array<float, 3>{float(n.x()), float(n.y()), float(n.z())});
+        mesh.corner_normals.push_back(corners);
       }
     }
   }

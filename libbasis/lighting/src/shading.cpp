@@ -45,6 +45,13 @@ void add_lights(std::span<const DirectionalLight> lights, const std::optional<Fr
 
 }  // namespace
 
+Rgb reflect_lights(std::span<const DirectionalLight> lights, const Frame& record,
+                   const Frame& shading, const Vec3& wo, const Brdf& brdf) {
+  Convolution result;
+  add_lights(lights, record, shading, wo, &brdf, result, [](const Vec3&, Color&, Color&) {});
+  return result.value;
+}
+
 Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, std::size_t k,
                   const ShadingOptions& options) {
   if (!(options.wo.z() >= 0)) throw std::invalid_argument("outgoing direction below the horizon");

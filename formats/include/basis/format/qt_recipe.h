@@ -17,6 +17,10 @@ namespace basis {
 // are found relative to the spec's original folder). Throws FileError.
 BrdfSpec table_brdf(const QtFile& table);
 
+// The options brdf2qt tabulates a spec with by default: BrdfTableOptions' defaults, the outgoing
+// resolution the BRDF needs (default_wo_resolution), and the spec's "table" block over them.
+BrdfTableOptions table_options(const BrdfSpec& spec);
+
 // The options a table was tabulated with, as the parameters (JSON text) of its provenance:
 // wo_res, wi_res, tolerance, tolerance_floor, wo_derivatives, mode, tilt_derivatives, bounds.
 std::string table_parameters(const BrdfTableOptions& options);

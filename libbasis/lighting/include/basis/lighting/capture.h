@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <span>
 #include <string>
 #include <vector>
@@ -23,18 +24,28 @@ struct CaptureOptions {
   int resolution = 128;       // N, texels per side (power of two, 2..512)
   int strata = 2;             // rays per texel = strata^2, jittered within a strata x strata grid
   int bright_subsamples = 4;  // pieces per axis of each bright environment pixel
-  std::uint64_t seed = 1;     // jitter; results depend on it and the point index only
-  double ray_offset = 1e-4;   // origins move this far along the normal (scaled by the scene)
+  // At most this many environment samples per axis average an escaping ray's stratum (about
+  // one per map pixel the stratum spans, 1 to this).
+  int stratum_subsamples = 8;
+  std::uint64_t seed = 1;    // jitter; results depend on it and the point index only
+  double ray_offset = 1e-4;  // origins move this far along the normal (scaled by the scene)
   // Where the environment's compact lights (a sun) go: into the texels they fall in, like any
   // bright pixel, or apart, as one DirectionalLight per light seen.
   enum class CompactLights { splatted, apart };
   CompactLights compact_lights = CompactLights::splatted;
+  // Also measure how far the occluders are (Capture::occluder_distance), tracing the strata's
+  // rays to their nearest hit instead of testing occlusion alone.
+  bool occluder_distances = false;
 };
 
 // Counts of what a capture did, for reports and benchmarks.
 struct CaptureStats {
   long long rays = 0;
   long long escaped = 0;
+  // With CaptureOptions::occluder_distances: the sum over the strata's rays that hit of
+  // 1 / distance, and their count.
+  double inverse_distance_sum = 0;
+  long long occluded = 0;
 };
 
 // One capture: texel averages of L(w) V(x, w) over the cosine-weighted concentric map of the
@@ -43,6 +54,13 @@ struct Capture {
   Grid texels;
   std::vector<DirectionalLight> lights;
   CaptureStats stats;
+  // The harmonic mean distance to the occluders the strata's rays hit (infinity when none
+  // does, or without CaptureOptions::occluder_distances): the scale over which the capture
+  // changes as its point moves (a radiance cache's validity radius).
+  double occluder_distance() const {
+    return stats.occluded > 0 ? double(stats.occluded) / stats.inverse_distance_sum
+                              : std::numeric_limits<double>::infinity();
+  }
 };
 
 // Compact lights wider than this (their radius, Environment::CompactLight) are kept apart as

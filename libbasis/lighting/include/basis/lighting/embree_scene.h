@@ -20,6 +20,8 @@ class EmbreeScene : public RayScene {
   // Rays start at their origin (tnear 0) and run to infinity. Thread-safe. Sets flush-to-zero
   // and denormals-are-zero on the calling thread, as Embree expects.
   void trace(std::span<const Ray> rays, std::span<RayHit> hits) const override;
+  void trace_nearest(std::span<const Ray> rays, std::span<RayHit> hits) const override;
+  void intersect(std::span<const Ray> rays, std::span<RayIntersection> hits) const override;
 
  private:
   struct State;

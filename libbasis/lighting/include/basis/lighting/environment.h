@@ -3,6 +3,7 @@
 // and the compact lights (a sun) among them that captures can keep apart as directions.
 #pragma once
 
+#include <array>
 #include <span>
 #include <string>
 #include <vector>
@@ -43,6 +44,11 @@ class Environment {
 
   // Radiance of the pixel seen in world direction w (bright part included).
   Color radiance(const Vec3& w) const;
+  // The pixel {row, column} seen in world direction w ({0, 0} for a constant environment), and
+  // its radiance (bright part included).
+  std::array<int, 2> pixel_at(const Vec3& w) const;
+  Color pixel_radiance(int row, int column) const { return pixel(row, column); }
+  bool is_constant() const { return constant_; }
   // Radiance of the smooth part (bright excess removed) of the pixel seen in direction w.
   Color smooth_radiance(const Vec3& w) const;
   // Angular height of a pixel row (pi / height), 0 for a constant environment: the scale at

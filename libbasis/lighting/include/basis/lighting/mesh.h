@@ -19,6 +19,9 @@ struct TriangleMesh {
   std::vector<std::array<float, 3>> vertices;
   std::vector<std::array<std::uint32_t, 3>> triangles;
   std::vector<Color> emission;  // per triangle: the material's Ke, black when none
+  // Per triangle, the unit normals at its three corners (the OBJ's vertex normals; the face's
+  // normal at corners that have none); empty when the file has no vertex normals.
+  std::vector<std::array<std::array<float, 3>, 3>> corner_normals;
 
   // Problems repaired while reading: degenerate (zero-area) triangles dropped.
   long long dropped_degenerate = 0;
@@ -29,6 +32,13 @@ struct TriangleMesh {
   // Area and unit normal (counter-clockwise winding faces the normal) of triangle t.
   double area(std::size_t t) const;
   Vec3 normal(std::size_t t) const;
+  // The point of triangle t at barycentric coordinates (u, v) (weights of corners 1 and 2).
+  Vec3 point(std::size_t t, double u, double v) const;
+  // The shading normal there: the corner normals interpolated and normalised, or the face's
+  // normal when the mesh has none.
+  Vec3 shading_normal(std::size_t t, double u, double v) const;
+  // Appends another mesh's triangles (with their emission and normals).
+  void append(const TriangleMesh& other);
 };
 
 // Largest mesh accepted (checked while reading) and largest OBJ file (checked before).
@@ -37,7 +47,8 @@ inline constexpr std::uintmax_t kMaxObjBytes = std::uintmax_t(4) << 30;
 
 // Reads an OBJ file (and its MTL materials) with tinyobjloader; polygons are triangulated.
 // Throws FileError for unreadable files, NaN or infinite vertices, indices out of range, or a
-// mesh with no triangles. Degenerate triangles are dropped and counted.
+// mesh with no triangles. Degenerate triangles are dropped and counted. Vertex normals that are
+// not finite or zero count as absent (the face's normal stands in).
 TriangleMesh read_obj(const std::string& path);
 
 // `count` points uniformly distributed over the mesh's area, each with its triangle's normal

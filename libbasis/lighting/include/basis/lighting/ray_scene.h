@@ -2,6 +2,8 @@
 // implemented with Embree by EmbreeScene (embree_scene.h).
 #pragma once
 
+#include <cstdint>
+#include <limits>
 #include <span>
 
 #include "basis/core/color.h"
@@ -15,10 +17,21 @@ struct Ray {
 };
 
 // What a ray meets: nothing (it escapes to the environment) or a surface, whose emitted
-// radiance is `emission` (black for surfaces that only occlude).
+// radiance is `emission` (black for surfaces that only occlude), at `distance` along the ray
+// (filled by trace_nearest only; infinity otherwise).
 struct RayHit {
   bool hit = false;
   Color emission{0, 0, 0};
+  float distance = std::numeric_limits<float>::infinity();
+};
+
+// The nearest surface a ray meets: its distance, its triangle and the barycentric coordinates
+// (u, v) of the hit on it, the weights of the triangle's second and third vertices.
+struct RayIntersection {
+  bool hit = false;
+  float distance = std::numeric_limits<float>::infinity();
+  std::uint32_t triangle = 0;
+  float u = 0, v = 0;
 };
 
 // Geometry that rays are traced against. Implementations must be callable from several
@@ -26,7 +39,12 @@ struct RayHit {
 class RayScene {
  public:
   virtual ~RayScene() = default;
+  // Whether each ray meets a surface, and the emission of what it meets.
   virtual void trace(std::span<const Ray> rays, std::span<RayHit> hits) const = 0;
+  // The same, with the distance to the nearest surface met.
+  virtual void trace_nearest(std::span<const Ray> rays, std::span<RayHit> hits) const = 0;
+  // The nearest surface each ray meets (camera rays).
+  virtual void intersect(std::span<const Ray> rays, std::span<RayIntersection> hits) const = 0;
 };
 
 }  // namespace basis

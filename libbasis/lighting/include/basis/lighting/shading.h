@@ -31,6 +31,12 @@ struct ShadingOptions {
   WoInterpolation interpolation = WoInterpolation::hermite;
 };
 
+// The radiance the directional lights of a record (directions in frame `record`) reflect towards
+// wo (in frame `shading`): the sum of f(wi, wo) E wi.z with wi each light turned into the
+// shading frame; lights below its horizon drop out.
+Rgb reflect_lights(std::span<const DirectionalLight> lights, const Frame& record,
+                   const Frame& shading, const Vec3& wo, const Brdf& brdf);
+
 // The tilt of a surface of normal `normal` (world) against capture k's frame.
 Tilt capture_tilt(const CaptureSetView& captures, std::size_t k, const Vec3& normal);
 

@@ -1,0 +1,45 @@
+#include "basis/render/image_comparison.h"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace basis {
+
+ImageErrors compare_images(const Image& image, const Image& reference,
+                           std::span<const std::uint8_t> covered) {
+  if (image.width != reference.width || image.height != reference.height)
+    throw std::invalid_argument("the reference is " + std::to_string(reference.width) + " x " +
+                                std::to_string(reference.height) + " pixels, the image " +
+                                std::to_string(image.width) + " x " + std::to_string(image.height));
+  if (image.channels < 3 || reference.channels < 3)
+    throw std::invalid_argument("images to compare need three channels");
+  if (covered.size() != std::size_t(image.width) * image.height)
+    throw std::invalid_argument("the mask does not match the image");
+  ImageErrors e;
+  double mean = 0;
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x) {
+      if (!covered[std::size_t(y) * image.width + x]) continue;
+      ++e.pixels;
+      for (int c = 0; c < 3; ++c)
+        mean += reference.at(x, y, c);
+    }
+  if (e.pixels == 0) return e;
+  mean /= 3.0 * double(e.pixels);
+  const double eps = 0.01 * mean * mean;
+  double relative = 0, squared = 0;
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x) {
+      if (!covered[std::size_t(y) * image.width + x]) continue;
+      for (int c = 0; c < 3; ++c) {
+        const double r = reference.at(x, y, c), d = image.at(x, y, c) - r;
+        relative += d * d / (r * r + eps);
+        squared += d * d;
+      }
+    }
+  e.relative_mse = relative / (3.0 * double(e.pixels));
+  e.rmse = std::sqrt(squared / (3.0 * double(e.pixels)));
+  return e;
+}
+
+}  // namespace basis

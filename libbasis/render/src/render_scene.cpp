@@ -1,0 +1,70 @@
+#include "basis/render/render_scene.h"
+
+#include "basis/io/image_file.h"
+
+namespace basis {
+
+namespace {
+
+std::unique_ptr<Environment> load_environment(const SceneFile& file,
+                                              const SceneLoadOptions& options) {
+  const SceneFile::EnvironmentSpec& e = file.environment;
+  if (e.map.empty()) return std::make_unique<Environment>(Environment::constant(e.constant));
+  auto environment = std::make_unique<Environment>(read_image(e.map), e.rotate_degrees, e.map);
+  const EnvironmentRepairs& bad = environment->repairs();
+  if (bad.nan + bad.infinite > 0)
+    throw FileError(e.map + ": " + std::to_string(bad.nan) + " NaN and " +
+                    std::to_string(bad.infinite) + " infinite texel values (repair the map)");
+  if (bad.negative > 0 && options.note)
+    options.note(e.map + ": " + std::to_string(bad.negative) + " negative texel values read as 0");
+  return environment;
+}
+
+}  // namespace
+
+RenderScene load_render_scene(const SceneFile& file, const SceneLoadOptions& options) {
+  RenderScene scene;
+  scene.file = file;
+  scene.environment = load_environment(file, options);
+  scene.environment_sampler = std::make_unique<EnvironmentSampler>(*scene.environment);
+  for (std::size_t m = 0; m < file.meshes.size(); ++m) {
+    const SceneFile::MeshSpec& spec = file.meshes[m];
+    const std::string where =
+        file.path + ":" + std::to_string(spec.line) + ": mesh " + std::to_string(m) + ": ";
+    TriangleMesh mesh;
+    try {
+      mesh = read_obj(spec.obj);
+    } catch (const FileError& e) {
+      throw FileError(where + e.what());
+    }
+    if (mesh.dropped_degenerate > 0 && options.note)
+      options.note(spec.obj + ": " + std::to_string(mesh.dropped_degenerate) +
+                   " degenerate triangles dropped");
+    // A material used twice is loaded once.
+    std::size_t material = m;
+    for (std::size_t k = 0; k < m; ++k)
+      if (file.meshes[k].material == spec.material) material = k;
+    if (material == m) {
+      MaterialReport report;
+      try {
+        scene.materials.push_back(
+            load_material(spec.material, options.tables, options.control, &report));
+      } catch (const FileError& e) {
+        throw FileError(where + e.what());
+      }
+      if (report.tabulated && options.note)
+        options.note(spec.material + ": tabulated" +
+                     (report.cache_written ? ", cached in " + table_cache_path(spec.material)
+                                           : ", not cached (" + report.cache_problem + ")"));
+    } else {
+      scene.materials.push_back(scene.materials[material]);
+    }
+    scene.material_of.insert(scene.material_of.end(), mesh.triangles.size(),
+                             std::uint32_t(material));
+    scene.mesh.append(mesh);
+  }
+  scene.rays = std::make_unique<EmbreeScene>(scene.mesh);
+  return scene;
+}
+
+}  // namespace basis

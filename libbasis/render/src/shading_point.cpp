@@ -1,0 +1,37 @@
+#include "basis/render/shading_point.h"
+
+#include <algorithm>
+
+namespace basis {
+
+Vec3 ShadingPoint::local_wo() const {
+  Vec3 w = frame().to_local(wo);
+  if (w.z() < 1e-3) {
+    w.z() = 1e-3;
+    w.normalize();
+  }
+  return w;
+}
+
+ShadingPoint shading_point(const RenderScene& scene, const Ray& ray, const RayIntersection& hit,
+                           double pixel_angle) {
+  ShadingPoint p;
+  if (!hit.hit) return p;
+  p.hit = true;
+  p.position = scene.mesh.point(hit.triangle, hit.u, hit.v);
+  p.wo = -ray.direction;
+  p.geometric_normal = scene.mesh.normal(hit.triangle);
+  Vec3 n = scene.mesh.shading_normal(hit.triangle, hit.u, hit.v);
+  if (p.geometric_normal.dot(p.wo) < 0) p.geometric_normal = -p.geometric_normal;
+  if (n.dot(p.geometric_normal) < 0) n = -n;
+  p.normal = n;
+  p.material = scene.material_of[hit.triangle];
+  p.footprint = std::max(1e-12, double(hit.distance) * pixel_angle);
+  return p;
+}
+
+double ray_offset(const RenderScene& scene) {
+  return 1e-4 * std::max(1.0, scene.mesh.extent());
+}
+
+}  // namespace basis

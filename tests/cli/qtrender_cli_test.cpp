@@ -1,0 +1,106 @@
+// qtrender end to end: the real executable on scene files written here; bad scenes get one line
+// naming the file and no image.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "basis/io/image_file.h"
+#include "support/run_tool.h"
+#include "support/temp_dir.h"
+
+namespace basis {
+namespace {
+
+using testing::line_count;
+using testing::run_tool;
+using testing::TempDir;
+
+void write_text(const std::string& path, const std::string& text) {
+  std::ofstream(path) << text;
+}
+
+std::string scene_text(const std::string& camera, const std::string& material) {
+  return R"({"camera": )" + camera + R"(,
+  "environment": {"constant": [1, 0.9, 0.8]},
+  "meshes": [{"obj": ")" +
+         std::string(BASIS_SOURCE_DIR) + R"(/data/scene.obj", "material": ")" + material +
+         R"("}]})";
+}
+
+const std::string kCamera =
+    R"({"eye": [0, -9, 4], "look_at": [0, 0, 0.7], "up": [0, 0, 1], "fov": 40, "width": 24,
+    "height": 18})";
+
+TEST(QtrenderCli, RendersAnExrAndAPngAndReportsTimesAsJson) {
+  TempDir dir;
+  write_text(dir.file("m.json"), R"({"model": "phong", "kd": 0.5, "ks": 0.4, "exponent": 40,
+    "table": {"wo_res": 17, "wi_res": 32}})");
+  write_text(dir.file("s.json"), scene_text(kCamera, "m.json"));
+  const auto mc = run_tool("qtrender", {dir.file("s.json"), "--method", "mc", "--spp", "1024", "-o",
+                                        dir.file("mc.exr"), "--json"});
+  ASSERT_EQ(mc.status, 0) << mc.err;
+  const auto j = nlohmann::json::parse(mc.out);
+  EXPECT_EQ(j["spp"], 1024);
+  EXPECT_GT(j["total_s"].get<double>(), 0);
+  const Image image = read_image(dir.file("mc.exr"));
+  EXPECT_EQ(image.width, 24);
+  EXPECT_EQ(image.height, 18);
+  EXPECT_TRUE(std::filesystem::exists(dir.file("mc.png")));
+  // Under a constant sky of (1, 0.9, 0.8) nothing reflects more than the sky's radiance times
+  // the BRDF's albedo (at most kd + ks = 0.9), and the sky itself shows where rays miss.
+  for (std::size_t i = 0; i < image.pixels.size(); i += 3) {
+    EXPECT_LE(image.pixels[i], 1.0 + 1e-6);
+    EXPECT_LE(image.pixels[i + 2], 0.8 + 1e-6);
+  }
+
+  // A record at every pixel (radii of half a pixel): what is left is the table's and the
+  // records' own error, and the Monte Carlo image's noise.
+  const auto cache = run_tool(
+      "qtrender", {dir.file("s.json"), "-o", dir.file("cache.exr"), "--compare", dir.file("mc.exr"),
+                   "--json", "--max-spacing", "0.5", "--min-spacing", "0.5"});
+  ASSERT_EQ(cache.status, 0) << cache.err;
+  const auto c = nlohmann::json::parse(cache.out);
+  for (const char* key : {"total_s", "primary_s", "record_tracing_s", "projection_s",
+                          "convolution_s", "interpolation_s", "records", "relmse", "rmse"})
+    EXPECT_TRUE(c.contains(key)) << key;
+  EXPECT_GT(c["records"].get<int>(), 0);
+  EXPECT_EQ(c["records"].get<int>(), c["compared_pixels"].get<int>());
+  EXPECT_LT(c["relmse"].get<double>(), 0.005);
+  // The spec's table was cached beside it.
+  EXPECT_TRUE(std::filesystem::exists(dir.file("m.table.qt")));
+}
+
+TEST(QtrenderCli, BadScenesGetOneLineAndNoImage) {
+  TempDir dir;
+  write_text(dir.file("m.json"), R"({"model": "lambert", "albedo": 0.5})");
+  write_text(dir.file("broken.json"), R"({"model": "phong", "ks": 2})");
+  const std::string nowhere =
+      R"({"eye": [1, 1, 1], "look_at": [1, 1, 1], "fov": 40, "width": 8, "height": 8})";
+  const std::string empty =
+      R"({"eye": [0, -9, 4], "look_at": [0, 0, 0], "fov": 40, "width": 0, "height": 8})";
+  write_text(dir.file("nowhere.json"), scene_text(nowhere, "m.json"));
+  write_text(dir.file("empty.json"), scene_text(empty, "m.json"));
+  write_text(dir.file("material.json"), scene_text(kCamera, "broken.json"));
+  write_text(dir.file("mesh.json"), R"({"camera": )" + kCamera + R"(,
+    "environment": {"constant": 1}, "meshes": [{"obj": "gone.obj", "material": "m.json"}]})");
+  write_text(dir.file("map.json"), R"({"camera": )" + kCamera + R"(,
+    "environment": {"map": "gone.exr"}, "meshes": [{"obj": "x.obj", "material": "m.json"}]})");
+  for (const std::string name : {"nowhere", "empty", "material", "mesh", "map", "absent"}) {
+    const std::string out = dir.file(name + ".exr");
+    const auto r = run_tool("qtrender", {dir.file(name + ".json"), "-o", out, "--method", "mc"});
+    EXPECT_EQ(r.status, 1) << name << ": " << r.err;
+    EXPECT_EQ(line_count(r.err), 1) << name << ": " << r.err;
+    EXPECT_NE(r.err.find(name == "map" ? "gone.exr" : ".json"), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(out)) << name;
+  }
+  const auto usage = run_tool("qtrender", {dir.file("nowhere.json"), "-o", dir.file("x.png")});
+  EXPECT_EQ(usage.status, 2);
+  const auto help = run_tool("qtrender", {"--help"});
+  EXPECT_EQ(help.status, 0);
+  EXPECT_NE(help.out.find("radiance cache"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace basis
