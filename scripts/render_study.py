@@ -5,8 +5,8 @@ the reference, the time split and the record counts. Then the cache's failure ca
 view, a thin occluder, a lobe sharper than the records resolve) against Monte Carlo alike.
 
 Usage: render_study.py [--quick | --main-job] OUT_DIR
---quick: two scenes and one failure case, references of 1024 samples per pixel; --main-job: the
-bundled scene alone (data/scene.json) with a reference of 2048, Figures 1 and 7 only.
+--quick: two scenes and one failure case, references of 1024 samples per pixel (else 2048);
+--main-job: the bundled scene alone (data/scene.json), Figures 1 and 7 only.
 Writes OUT_DIR/render_study.json, a Markdown table on stdout, and the charts
 OUT_DIR/figure1.png (equal-time insets), OUT_DIR/figure7.png (time split), OUT_DIR/figure8.png
 (render times). The scenes are made here: the bundled data/scene.obj, the bunny of Debian's
@@ -251,21 +251,34 @@ def main():
     make_bunny(os.path.join(out, "bunny.obj"))
     make_spheres(os.path.join(out, "spheres.obj"))
     make_pole(os.path.join(out, "pole.obj"))
+    # Glossy materials from Phong 40 to 100 and GGX 0.1 to 0.2: the bundled specs and two more.
+    materials = {"Phong 100 (data/phong.json)": os.path.join(data, "phong.json"),
+                 "copper GGX 0.2 (data/ggx.json)": os.path.join(data, "ggx.json"),
+                 "Phong 40": os.path.join(out, "phong40.json"),
+                 "silver GGX 0.1": os.path.join(out, "ggx01.json")}
+    with open(materials["Phong 40"], "w") as f:
+        json.dump({"model": "phong", "kd": [0.3, 0.25, 0.2], "ks": 0.6, "exponent": 40}, f)
+    with open(materials["silver GGX 0.1"], "w") as f:
+        json.dump({"model": "ggx", "kd": 0.05, "f0": [0.9, 0.9, 0.9], "alpha": 0.1}, f)
     # (name, OBJ, material, map, rotation): the main job's scene first.
-    scenes = [("scene, sunrise", os.path.join(data, "scene.obj"), "phong.json", "sunrise", 0),
-              ("scene, courtyard", os.path.join(data, "scene.obj"), "phong.json", "courtyard", 0),
-              ("bunny, sunrise", os.path.join(out, "bunny.obj"), "ggx.json", "sunrise", 60),
-              ("bunny, forest", os.path.join(out, "bunny.obj"), "ggx.json", "forest", 0),
-              ("spheres, sunrise", os.path.join(out, "spheres.obj"), "phong.json", "sunrise", 0),
-              ("spheres, city", os.path.join(out, "spheres.obj"), "ggx.json", "city", 0)]
+    scenes = [("scene, sunrise", os.path.join(data, "scene.obj"), "Phong 100 (data/phong.json)",
+               "sunrise", 0),
+              ("scene, courtyard", os.path.join(data, "scene.obj"), "Phong 100 (data/phong.json)",
+               "courtyard", 0),
+              ("bunny, sunrise", os.path.join(out, "bunny.obj"), "copper GGX 0.2 (data/ggx.json)",
+               "sunrise", 60),
+              ("bunny, forest", os.path.join(out, "bunny.obj"), "copper GGX 0.2 (data/ggx.json)",
+               "forest", 0),
+              ("spheres, sunrise", os.path.join(out, "spheres.obj"), "Phong 40", "sunrise", 0),
+              ("spheres, city", os.path.join(out, "spheres.obj"), "silver GGX 0.1", "city", 0)]
     if quick:
         scenes = scenes[:2]
-    reference_spp = 1024 if quick else 4096
+    reference_spp = 1024 if quick else 2048
     cases = []
     for name, obj, material, env, rotate in scenes:
         slug = name.replace(", ", "_").replace(" ", "_")
         scene = os.path.join(out, slug + ".json")
-        write_scene(scene, obj, os.path.join(data, material), f"{WORLD}/{env}.exr", rotate=rotate)
+        write_scene(scene, obj, materials[material], f"{WORLD}/{env}.exr", rotate=rotate)
         print(f"render_study: {name}", file=sys.stderr)
         case = study_case(out, slug, scene, reference_spp)
         case["name"] = name

@@ -103,6 +103,10 @@ int main(int argc, char** argv) {
   app.add_option("--records", cache.max_records,
                  "cache: records interpolated per pixel, at most (default 4)")
       ->check(CLI::Range(1, 16));
+  app.add_option("--lookup-accuracy", cache.lookup_accuracy,
+                 "cache: stop each lookup's descent once its certified bound is within this "
+                 "fraction of the value (default 0: to the leaves)")
+      ->check(CLI::Range(0.0, 1.0));
   app.add_option("--first-spacing", first_spacing,
                  "cache: pixel spacing of the first placement pass (default 32)")
       ->check(CLI::Range(1, 4096));

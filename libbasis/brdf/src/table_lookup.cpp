@@ -58,7 +58,7 @@ Convolution reflect_tilted(const BrdfTableView& table, const PackedTreeView& rad
   Vec3 wo = tilt_rotation(tilt).transpose() * wo_shading;
   wo.z() = std::max(0.0, wo.z());
   Convolution result = reflect(table, radiance, wo, options);
-  if (mode == TiltCompensation::reparametrised) return result;
+  if (mode == TiltCompensation::reparametrised || tilt.angle() < kUncompensatedTilt) return result;
   if (!table.has_tilt())
     throw std::invalid_argument("the BRDF table holds no tilt derivatives to compensate with");
   // The first-order correction, from the tilt trees of the entries around wo, bilinearly.

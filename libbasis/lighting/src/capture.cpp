@@ -9,6 +9,7 @@
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
+#include <unordered_map>
 #include <vector>
 
 #include "basis/core/file_error.h"
@@ -60,14 +61,18 @@ void trace_strata(const Environment& environment, const RayScene* scene, const V
     for (int x = 0; x < n; ++x) {
       // Sub-samples per stratum side, from the angular size of the texel's middle stratum.
       int mu = 1, mv = 1;
+      double footprint = 1;  // map pixels a subsample stands for, along each side
       if (pixel_angle > 0) {
         const Vec2 centre((x + 0.5) / n, (y + 0.5) / n);
         const Vec3 c = square_to_cosine_hemisphere(centre);
         const Vec3 du = square_to_cosine_hemisphere(centre + Vec2(stratum, 0));
         const Vec3 dv = square_to_cosine_hemisphere(centre + Vec2(0, stratum));
         const int most = std::max(1, options.stratum_subsamples);
-        mu = std::clamp(int(std::ceil(angle_between(c, du) / pixel_angle)), 1, most);
-        mv = std::clamp(int(std::ceil(angle_between(c, dv) / pixel_angle)), 1, most);
+        const double pu = angle_between(c, du) / pixel_angle;
+        const double pv = angle_between(c, dv) / pixel_angle;
+        mu = std::clamp(int(std::ceil(pu)), 1, most);
+        mv = std::clamp(int(std::ceil(pv)), 1, most);
+        if (options.prefiltered) footprint = std::min(pu / mu, pv / mv);
       }
       Color sum{0, 0, 0};
       for (int s = 0; s < k * k; ++s, ++r) {
@@ -86,8 +91,9 @@ void trace_strata(const Environment& environment, const RayScene* scene, const V
             const Vec2 uv = corner + Vec2((a + unit_random(2 * sub)) / mu,
                                           (b + unit_random(2 * sub + 1)) / mv) *
                                          stratum;
-            const Color l =
-                environment.smooth_radiance(frame.to_world(square_to_cosine_hemisphere(uv)));
+            const Vec3 w = frame.to_world(square_to_cosine_hemisphere(uv));
+            const Color l = options.prefiltered ? environment.smooth_radiance(w, footprint)
+                                                : environment.smooth_radiance(w);
             for (int c = 0; c < 3; ++c)
               average[c] += l[c];
           }
@@ -124,6 +130,8 @@ BrightPieces gather_bright_pieces(const Environment& environment, const Vec3& or
   const int s = std::max(1, options.bright_subsamples);
   BrightPieces out;
   const auto compact = environment.lights();
+  // With shared_bright_rays: the shadow ray of each texel's first bright pixel outside lights.
+  std::unordered_map<std::size_t, std::size_t> texel_ray;
   for (const Environment::BrightPixel& b : environment.bright_pixels()) {
     const int light = lights_apart ? b.light : -1;
     // A light wider than kSplitLightRadiusDegrees is kept as the four quarters of its extent
@@ -132,27 +140,38 @@ BrightPieces gather_bright_pieces(const Environment& environment, const Vec3& or
                                          kSplitLightRadiusDegrees * std::numbers::pi / 180;
     const Frame around =
         split ? Frame::from_normal(compact[std::size_t(light)].direction) : Frame{};
+    const Vec3& centre = b.centre;
+    std::size_t ray = out.shadow_rays.size();
+    bool shared = false;
+    if (options.shared_bright_rays && b.light < 0 && frame.to_local(centre).z() > 0) {
+      const auto [cx, cy] = cosine_hemisphere_texel(frame.to_local(centre), n);
+      const auto [at, inserted] = texel_ray.try_emplace(std::size_t(cy) * n + cx, ray);
+      ray = at->second;
+      shared = !inserted;
+    }
     bool any = false;
-    environment.for_each_subpixel(
-        b.row, b.column, b.column + 1, s, [&](int, const Vec3& w, double solid_angle) {
-          const Vec3 l = frame.to_local(w);
-          if (l.z() <= 0) return;
-          const auto [tx, ty] = cosine_hemisphere_texel(l, n);
-          const double weight =
-              light >= 0 ? solid_angle : solid_angle * l.z() / std::numbers::pi / texel_area;
-          const Vec3 offset = around.to_local(w);
-          const int part = light < 0 ? -1
-                           : !split  ? 4 * light
-                                     : 4 * light + (offset.x() >= 0) + 2 * (offset.y() >= 0);
-          out.pieces.push_back({out.shadow_rays.size(),
-                                std::size_t(ty) * n + tx,
-                                part,
-                                {b.excess[0] * weight, b.excess[1] * weight, b.excess[2] * weight},
-                                l});
-          any = true;
-        });
-    if (any)
-      out.shadow_rays.push_back({origin, environment.direction(b.column + 0.5, b.row + 0.5)});
+    auto piece = [&](int, const Vec3& w, double solid_angle) {
+      const Vec3 l = frame.to_local(w);
+      if (l.z() <= 0) return;
+      const auto [tx, ty] = cosine_hemisphere_texel(l, n);
+      const double weight =
+          light >= 0 ? solid_angle : solid_angle * l.z() / std::numbers::pi / texel_area;
+      const Vec3 offset = around.to_local(w);
+      const int part = light < 0 ? -1
+                       : !split  ? 4 * light
+                                 : 4 * light + (offset.x() >= 0) + 2 * (offset.y() >= 0);
+      out.pieces.push_back({ray,
+                            std::size_t(ty) * n + tx,
+                            part,
+                            {b.excess[0] * weight, b.excess[1] * weight, b.excess[2] * weight},
+                            l});
+      any = true;
+    };
+    if (s == 1)
+      piece(b.column, b.centre, b.solid_angle);
+    else
+      environment.for_each_subpixel(b.row, b.column, b.column + 1, s, piece);
+    if (any && !shared) out.shadow_rays.push_back({origin, centre});
   }
   return out;
 }

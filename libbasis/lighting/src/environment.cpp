@@ -18,6 +18,8 @@ Environment::Environment(const Image& latlong, double rotate_z_degrees, std::str
       rotation_(rotate_z_degrees * std::numbers::pi / 180) {
   if (width_ < 2 || height_ < 1) throw std::invalid_argument("environment map has no pixels");
   if (!std::isfinite(rotation_)) throw std::invalid_argument("environment rotation is not finite");
+  cos_rotation_ = std::cos(rotation_);
+  sin_rotation_ = std::sin(rotation_);
   pixels_.resize(std::size_t(width_) * height_ * 3);
   for (int y = 0; y < height_; ++y)
     for (int x = 0; x < width_; ++x)
@@ -60,13 +62,14 @@ Environment::Environment(const Image& latlong, double rotate_z_degrees, std::str
       if (!(l > level) || level <= 0) continue;
       float* s = &smooth_[(std::size_t(y) * width_ + x) * 3];
       const float* p = &pixels_[(std::size_t(y) * width_ + x) * 3];
-      BrightPixel b{y, x, {}};
+      BrightPixel b{y, x, {}, -1, direction(x + 0.5, y + 0.5), row_solid_angle_[y]};
       for (int c = 0; c < 3; ++c) {
         s[c] = float(p[c] * level / l);
         b.excess[c] = double(p[c]) - s[c];
       }
       bright_.push_back(b);
     }
+  build_pyramid();
   find_compact_lights(level, lum);
 }
 
@@ -157,7 +160,7 @@ Environment Environment::constant(const Color& radiance) {
 
 Vec3 Environment::direction(double x, double y) const {
   const Vec3 d = latlong_to_direction({x, y}, width_, height_);
-  const double c = std::cos(rotation_), s = std::sin(rotation_);
+  const double c = cos_rotation_, s = sin_rotation_;
   return {c * d.x() - s * d.y(), s * d.x() + c * d.y(), d.z()};
 }
 
@@ -173,7 +176,7 @@ Color Environment::pixel(int row, int column) const {
 
 std::array<int, 2> Environment::pixel_at(const Vec3& w) const {
   if (constant_) return {0, 0};
-  const double c = std::cos(rotation_), s = std::sin(rotation_);
+  const double c = cos_rotation_, s = sin_rotation_;
   const Vec3 map(c * w.x() + s * w.y(), -s * w.x() + c * w.y(), w.z());
   const Vec2 p = direction_to_latlong(map, width_, height_);
   return {std::clamp(int(p.y()), 0, height_ - 1), std::clamp(int(p.x()), 0, width_ - 1)};
@@ -186,13 +189,66 @@ Color Environment::radiance(const Vec3& w) const {
 
 Color Environment::smooth_radiance(const Vec3& w) const {
   if (constant_) return pixel(0, 0);
-  const double c = std::cos(rotation_), s = std::sin(rotation_);
+  const double c = cos_rotation_, s = sin_rotation_;
   const Vec3 map(c * w.x() + s * w.y(), -s * w.x() + c * w.y(), w.z());
   const Vec2 p = direction_to_latlong(map, width_, height_);
   const float* q = &smooth_[(std::size_t(std::clamp(int(p.y()), 0, height_ - 1)) * width_ +
                              std::clamp(int(p.x()), 0, width_ - 1)) *
                             3];
   return {q[0], q[1], q[2]};
+}
+
+void Environment::build_pyramid() {
+  pyramid_.clear();
+  const std::vector<float>* fine = &smooth_;
+  int w = width_, h = height_;
+  while (w >= 8 && h >= 4) {
+    Level next{w / 2, h / 2, std::vector<float>(std::size_t(w / 2) * (h / 2) * 3, 0.f)};
+    for (int y = 0; y < next.height; ++y) {
+      // Rows weighted by their solid angle (sin theta at their centres).
+      const double w0 = std::sin(std::numbers::pi * (2 * y + 0.5) / h);
+      const double w1 = std::sin(std::numbers::pi * (2 * y + 1.5) / h);
+      const double total = std::max(1e-12, 2 * (w0 + w1));
+      for (int x = 0; x < next.width; ++x)
+        for (int c = 0; c < 3; ++c) {
+          auto at = [&](int xx, int yy) {
+            return double((*fine)[(std::size_t(yy) * w + xx) * 3 + c]);
+          };
+          const double sum = w0 * (at(2 * x, 2 * y) + at(2 * x + 1, 2 * y)) +
+                             w1 * (at(2 * x, 2 * y + 1) + at(2 * x + 1, 2 * y + 1));
+          next.pixels[(std::size_t(y) * next.width + x) * 3 + c] = float(sum / total);
+        }
+    }
+    pyramid_.push_back(std::move(next));
+    fine = &pyramid_.back().pixels;
+    w = pyramid_.back().width;
+    h = pyramid_.back().height;
+  }
+}
+
+Color Environment::smooth_radiance(const Vec3& w, double pixels) const {
+  if (constant_ || !(pixels > 1) || pyramid_.empty()) return smooth_radiance(w);
+  const int level = std::min(int(pyramid_.size()), int(std::ceil(std::log2(pixels))));
+  const Level& l = pyramid_[std::size_t(level - 1)];
+  const double c = cos_rotation_, s = sin_rotation_;
+  const Vec3 map(c * w.x() + s * w.y(), -s * w.x() + c * w.y(), w.z());
+  const Vec2 p = direction_to_latlong(map, width_, height_);
+  // Bilinear between the level's pixel centres, wrapping around in x.
+  const double scale = double(l.width) / width_;
+  const double x = p.x() * scale - 0.5, y = std::clamp(p.y() * scale - 0.5, 0.0, l.height - 1.0);
+  const int x0 = int(std::floor(x)), y0 = std::clamp(int(y), 0, std::max(0, l.height - 2));
+  const double fx = x - x0, fy = std::clamp(y - y0, 0.0, 1.0);
+  const int xa = (x0 % l.width + l.width) % l.width, xb = (xa + 1) % l.width;
+  const int yb = std::min(y0 + 1, l.height - 1);
+  Color out{0, 0, 0};
+  for (int ch = 0; ch < 3; ++ch) {
+    auto at = [&](int xx, int yy) {
+      return double(l.pixels[(std::size_t(yy) * l.width + xx) * 3 + ch]);
+    };
+    out[ch] = (1 - fy) * ((1 - fx) * at(xa, y0) + fx * at(xb, y0)) +
+              fy * ((1 - fx) * at(xa, yb) + fx * at(xb, yb));
+  }
+  return out;
 }
 
 double Environment::pixel_angle() const {

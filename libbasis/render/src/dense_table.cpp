@@ -70,7 +70,7 @@ Convolution reflect_tilted_dense(const DenseTable& table, const Grid& radiance,
         result.value[c] += float(std::numbers::pi * tap.weights[g] * d[c]);
     }
   }
-  if (mode != TiltCompensation::compensated) return result;
+  if (mode != TiltCompensation::compensated || tilt.angle() < kUncompensatedTilt) return result;
   for (const TableTap& tap : table_taps(table.table().wo_resolution, wo)) {
     if (tap.weights[0] == 0) continue;
     const Grid& d = table.tilt_entry(tap.i, tap.j);

@@ -12,7 +12,7 @@ Color direct_lighting_sum(const RenderScene& scene, const ShadingPoint& point, s
   const Frame frame = point.frame();
   const Vec3 wo = point.local_wo();
   const Brdf& brdf = scene.materials[point.material].brdf;
-  const Vec3 origin = point.position + point.geometric_normal * ray_offset(scene);
+  const Vec3 origin = point.position + point.geometric_normal * scene.ray_offset;
   std::vector<Ray> rays;
   std::vector<Color> weights;  // f L cos / pdf x MIS weight, before visibility
   rays.reserve(2 * std::size_t(count));

@@ -21,7 +21,7 @@ std::uint64_t light_mask(const RenderScene& scene, const Vec3& position, const V
   const std::size_t count = std::min<std::size_t>(64, lights.size());
   std::vector<Ray> rays;
   std::vector<std::size_t> which;
-  const Vec3 origin = position + geometric_normal * ray_offset(scene);
+  const Vec3 origin = position + geometric_normal * scene.ray_offset;
   for (std::size_t l = 0; l < count; ++l)
     if (lights[l].direction.dot(normal) > 0 && lights[l].direction.dot(geometric_normal) > 0) {
       rays.push_back({origin, lights[l].direction});
@@ -111,9 +111,11 @@ void RadianceCache::add_records(std::span<const Site> sites, const TaskControl& 
   capture.stratum_subsamples = options_.stratum_subsamples;
   capture.bright_subsamples = options_.bright_subsamples;
   capture.seed = options_.seed;
-  capture.ray_offset = ray_offset(*scene_);
+  capture.ray_offset = scene_->ray_offset;
   capture.compact_lights = CaptureOptions::CompactLights::apart;
   capture.occluder_distances = true;
+  capture.shared_bright_rays = true;
+  capture.prefiltered = true;
   ProjectionOptions projection;
   projection.tolerance = options_.tolerance;
   struct Made {
@@ -249,6 +251,7 @@ Rgb RadianceCache::radiance(std::uint32_t k, const ShadingPoint& point) const {
     shade_options.normal = point.normal;
     shade_options.tilt_mode = options_.tilt;
     shade_options.light_brdf = &material.brdf;
+    shade_options.convolution.accuracy = options_.lookup_accuracy;
     return shade(material.table_view(), view_, k, shade_options).value;
   }
   Convolution c = reflect_tilted_dense(*dense_tables_[point.material], grids_[k], tilt_grids_[k],

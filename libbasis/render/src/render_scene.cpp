@@ -1,5 +1,7 @@
 #include "basis/render/render_scene.h"
 
+#include <algorithm>
+
 #include "basis/io/image_file.h"
 
 namespace basis {
@@ -64,6 +66,7 @@ RenderScene load_render_scene(const SceneFile& file, const SceneLoadOptions& opt
     scene.mesh.append(mesh);
   }
   scene.rays = std::make_unique<EmbreeScene>(scene.mesh);
+  scene.ray_offset = 1e-4 * std::max(1.0, scene.mesh.extent());
   return scene;
 }
 

@@ -30,8 +30,4 @@ ShadingPoint shading_point(const RenderScene& scene, const Ray& ray, const RayIn
   return p;
 }
 
-double ray_offset(const RenderScene& scene) {
-  return 1e-4 * std::max(1.0, scene.mesh.extent());
-}
-
 }  // namespace basis

@@ -184,14 +184,14 @@ TEST(MonteCarlo, AgreesWithIntegrationOverTheMapWithIndependentVisibility) {
     const Color mc = direct_lighting_sum(scene, p, 12345, 0, samples);
     const Color reference =
         reference_reflection(*scene.environment, &brute, p.position, p.frame(),
-                             scene.materials[p.material].brdf, p.local_wo(), 2, ray_offset(scene));
+                             scene.materials[p.material].brdf, p.local_wo(), 2, scene.ray_offset);
     for (int c = 0; c < 3; ++c)
       EXPECT_NEAR(mc[c] / samples, reference[c], 0.02 * reference[c] + 1e-4)
           << "pixel " << x << "," << y << " channel " << c;
     // The sun (2e4 over one pixel) dominates where it is seen: the points span both cases.
     const Vec3 sun = scene.environment->lights()[0].direction;
     std::vector<RayHit> sun_hit(1);
-    const Ray to_sun{p.position + p.geometric_normal * ray_offset(scene), sun};
+    const Ray to_sun{p.position + p.geometric_normal * scene.ray_offset, sun};
     brute.trace(std::span(&to_sun, 1), sun_hit);
     shadowed += sun_hit[0].hit || sun.dot(p.normal) <= 0;
     ++checked;

@@ -41,6 +41,10 @@ enum class TiltCompensation {
                    // group 1), the first-order tilt derivatives (tilt_derivative.h)
 };
 
+// Tilts below this angle (radians) are not compensated: their first-order term is below float
+// rounding of the result.
+inline constexpr double kUncompensatedTilt = 1e-7;
+
 // Reflected radiance at a surface tilted by `tilt` against the frame `radiance` was recorded
 // in; wo_shading is in the tilted (shading) frame. The bound is that of the re-parametrised
 // term; the compensation itself is a first-order estimate, interpolated bilinearly between

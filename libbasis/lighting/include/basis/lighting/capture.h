@@ -24,9 +24,15 @@ struct CaptureOptions {
   int resolution = 128;       // N, texels per side (power of two, 2..512)
   int strata = 2;             // rays per texel = strata^2, jittered within a strata x strata grid
   int bright_subsamples = 4;  // pieces per axis of each bright environment pixel
+  // Bright pixels outside compact lights that fall into one texel share the shadow ray of the
+  // first of them, instead of one ray each (compact lights keep one ray per pixel).
+  bool shared_bright_rays = false;
   // At most this many environment samples per axis average an escaping ray's stratum (about
   // one per map pixel the stratum spans, 1 to this).
   int stratum_subsamples = 8;
+  // Take the subsamples from the environment's box-filtered pyramid at the scale each stands
+  // for (Environment::smooth_radiance(w, pixels)), so that few of them average many pixels.
+  bool prefiltered = false;
   std::uint64_t seed = 1;    // jitter; results depend on it and the point index only
   double ray_offset = 1e-4;  // origins move this far along the normal (scaled by the scene)
   // Where the environment's compact lights (a sun) go: into the texels they fall in, like any

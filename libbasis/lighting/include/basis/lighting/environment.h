@@ -51,14 +51,20 @@ class Environment {
   bool is_constant() const { return constant_; }
   // Radiance of the smooth part (bright excess removed) of the pixel seen in direction w.
   Color smooth_radiance(const Vec3& w) const;
+  // The smooth part averaged over about `pixels` x `pixels` map pixels around w: bilinear in
+  // the first level of a box-filtered pyramid (solid-angle weighted, each level halving the
+  // last) whose pixels are at least that wide; the map's own pixel for 1 or less.
+  Color smooth_radiance(const Vec3& w, double pixels) const;
   // Angular height of a pixel row (pi / height), 0 for a constant environment: the scale at
   // which captures sample the map.
   double pixel_angle() const;
 
   struct BrightPixel {
     int row, column;
-    Color excess;    // radiance above the smooth part's level
-    int light = -1;  // the compact light it belongs to, -1 for none
+    Color excess;                // radiance above the smooth part's level
+    int light = -1;              // the compact light it belongs to, -1 for none
+    Vec3 centre = Vec3::Zero();  // world direction of the pixel's centre (rotation applied)
+    double solid_angle = 0;      // of the pixel
   };
   std::span<const BrightPixel> bright_pixels() const { return bright_; }
 
@@ -107,9 +113,16 @@ class Environment {
 
   std::string name_;
   int width_ = 0, height_ = 0;
-  double rotation_ = 0;                  // radians
-  std::vector<float> pixels_;            // RGB rows, bright excess included
-  std::vector<float> smooth_;            // RGB rows, bright excess removed
+  double rotation_ = 0;  // radians
+  double cos_rotation_ = 1, sin_rotation_ = 0;
+  std::vector<float> pixels_;  // RGB rows, bright excess included
+  std::vector<float> smooth_;  // RGB rows, bright excess removed
+  struct Level {
+    int width, height;
+    std::vector<float> pixels;  // RGB rows
+  };
+  std::vector<Level> pyramid_;  // smooth_ halved again and again (level k at index k - 1)
+  void build_pyramid();
   std::vector<double> row_solid_angle_;  // per pixel of each row
   std::vector<BrightPixel> bright_;
   std::vector<CompactLight> lights_;

@@ -21,7 +21,7 @@ namespace basis {
 struct CacheOptions {
   int resolution = 32;         // record texels per side
   int strata = 1;              // rays per texel: strata^2
-  int stratum_subsamples = 2;  // environment samples per axis averaging a stratum (at most)
+  int stratum_subsamples = 1;  // environment samples per axis averaging a stratum (at most)
   int bright_subsamples = 1;   // pieces per axis of each bright environment pixel
   double tolerance = 0.05;     // projection of the records into trees, relative to their mean
   // A record's validity radius: radius_scale x the harmonic mean distance of its occluders,
@@ -31,6 +31,9 @@ struct CacheOptions {
   double max_spacing = 6;
   double max_normal_degrees = 15;  // normals further apart than this do not share records
   int max_records = 4;             // K, records interpolated per point (1..16)
+  // Accuracy target of the quadtree records' lookups (ConvolutionOptions::accuracy); 0
+  // descends to the leaves. Dense records are exact products whatever it says.
+  double lookup_accuracy = 0;
   // Records are stored as trees (the quadtree cache) or dense grids (the regular-texture cache)
   // at the same resolution, shaded with the same lookups.
   bool dense = false;

@@ -28,7 +28,4 @@ struct ShadingPoint {
 ShadingPoint shading_point(const RenderScene& scene, const Ray& ray, const RayIntersection& hit,
                            double pixel_angle);
 
-// How far rays leave surfaces along their normal: 1e-4 of the scene's extent (at least 1e-4).
-double ray_offset(const RenderScene& scene);
-
 }  // namespace basis
