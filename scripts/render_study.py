@@ -4,9 +4,10 @@ cache (the same records) and Monte Carlo in the cache's time, and reports relati
 the reference, the time split and the record counts. Then the cache's failure cases (a grazing
 view, a thin occluder, a lobe sharper than the records resolve) against Monte Carlo alike.
 
-Usage: render_study.py [--quick | --main-job] OUT_DIR
+Usage: render_study.py [--quick | --main-job | --redraw] OUT_DIR
 --quick: two scenes and one failure case, references of 1024 samples per pixel (else 2048);
---main-job: the bundled scene alone (data/scene.json), Figures 1 and 7 only.
+--main-job: the bundled scene alone (data/scene.json), Figures 1 and 7 only; --redraw: the
+charts and tables again from OUT_DIR/render_study.json.
 Writes OUT_DIR/render_study.json, a Markdown table on stdout, and the charts
 OUT_DIR/figure1.png (equal-time insets), OUT_DIR/figure7.png (time split), OUT_DIR/figure8.png
 (render times). The scenes are made here: the bundled data/scene.obj, the bunny of Debian's
@@ -162,23 +163,26 @@ def figure1(out, case):
               ("reference", f"{name}_reference.png", None)]
     images = [plt.imread(os.path.join(out, p)) for _, p, _ in panels]
     h, w = images[0].shape[:2]
-    # Insets: a glossy part of the sphere and a shadow's edge on the floor.
-    insets = [(int(0.40 * h), int(0.58 * w)), (int(0.72 * h), int(0.18 * w))]
+    # Insets: the edge of the sphere against a box's shadow, and a shadow's edge on the floor.
+    insets = [(int(0.40 * h), int(0.58 * w)), (int(0.45 * h), int(0.33 * w))]
     size = h // 6
-    fig, axes = plt.subplots(3, 3, figsize=(10, 7.6), gridspec_kw={"height_ratios": [3, 1.3, 1.3]})
+    fig = plt.figure(figsize=(10, 5.4))
+    grid = fig.add_gridspec(2, 6, height_ratios=[2.2, 1])
     for col, ((title, _, result), image) in enumerate(zip(panels, images)):
-        ax = axes[0][col]
+        ax = fig.add_subplot(grid[0, 2 * col:2 * col + 2])
         ax.imshow(image)
         label = title
         if result:
             label += "\n%.2f s, relMSE %.2e" % (result["total_s"], result["relmse"])
         ax.set_title(label, fontsize=9)
+        ax.set_xticks([])
+        ax.set_yticks([])
         for k, (y, x) in enumerate(insets):
             ax.add_patch(plt.Rectangle((x, y), size, size, fill=False, color="yellow", lw=1))
-            axes[1 + k][col].imshow(image[y:y + size, x:x + size], interpolation="nearest")
-        for a in axes[:, col]:
-            a.set_xticks([])
-            a.set_yticks([])
+            inset = fig.add_subplot(grid[1, 2 * col + k])
+            inset.imshow(image[y:y + size, x:x + size], interpolation="nearest")
+            inset.set_xticks([])
+            inset.set_yticks([])
     fig.tight_layout()
     fig.savefig(os.path.join(out, "figure1.png"), dpi=110)
 
@@ -190,7 +194,7 @@ def figure7(out, case):
     parts = [("primary_s", "camera rays"), ("record_tracing_s", "record tracing"),
              ("projection_s", "projection"), ("convolution_s", "convolution + lookup"),
              ("interpolation_s", "interpolation")]
-    fig, ax = plt.subplots(figsize=(8, 2.6))
+    fig, ax = plt.subplots(figsize=(9, 2.6))
     for row, (label, r) in enumerate([("quadtree records", case["cache"]),
                                       ("dense records", case["dense"])]):
         left = 0
@@ -200,7 +204,8 @@ def figure7(out, case):
         ax.text(left, row, " %.2f s" % r["total_s"], va="center", fontsize=9)
     ax.set_yticks([0, 1], ["quadtree records", "dense records"])
     ax.set_xlabel("render time, seconds (2 cores)")
-    ax.legend(fontsize=8, ncol=3, loc="lower right")
+    ax.legend(fontsize=8, ncol=5, loc="lower center", bbox_to_anchor=(0.5, 1.0), frameon=False)
+    ax.set_xlim(0, 1.12 * max(case["cache"]["total_s"], case["dense"]["total_s"]))
     fig.tight_layout()
     fig.savefig(os.path.join(out, "figure7.png"), dpi=110)
 
@@ -217,8 +222,11 @@ def figure8(out, cases):
     ax.bar([i + 0.2 for i in x], [c["dense"]["total_s"] for c in cases], 0.4,
            label="dense-grid cache (same records)")
     for i, c in enumerate(cases):
-        ax.text(i - 0.2, c["cache"]["total_s"], "%.1fx\nless\nMSE" % (c["mc"]["relmse"] / c["cache"]["relmse"]),
-                ha="center", va="bottom", fontsize=7)
+        ax.text(i - 0.2, c["cache"]["total_s"], "%.1fx" % (c["mc"]["relmse"] / c["cache"]["relmse"]),
+                ha="center", va="bottom", fontsize=8)
+    ax.set_title("render times (2 cores); over the bars: Monte Carlo's relative MSE in the "
+                 "cache's time, as a multiple of the cache's", fontsize=9)
+    ax.set_ylim(0, 1.15 * max(max(c["cache"]["total_s"], c["dense"]["total_s"]) for c in cases))
     ax.set_xticks(list(x), names, fontsize=8, rotation=15)
     ax.set_ylabel("seconds")
     ax.legend(fontsize=8)
@@ -229,10 +237,16 @@ def figure8(out, cases):
 def main():
     quick = "--quick" in sys.argv
     main_job = "--main-job" in sys.argv
-    args = [a for a in sys.argv[1:] if a not in ("--quick", "--main-job")]
+    redraw = "--redraw" in sys.argv
+    args = [a for a in sys.argv[1:] if a not in ("--quick", "--main-job", "--redraw")]
     if len(args) != 1:
         sys.exit(__doc__)
     out = os.path.abspath(args[0])
+    if redraw:
+        with open(os.path.join(out, "render_study.json")) as f:
+            results = json.load(f)
+        report(out, results["cases"], results["failures"])
+        return
     os.makedirs(out, exist_ok=True)
     data = os.path.join(ROOT, "data")
     if main_job:
@@ -309,27 +323,35 @@ def main():
 
     with open(os.path.join(out, "render_study.json"), "w") as f:
         json.dump({"cases": cases, "failures": failure_results}, f, indent=1)
+    report(out, cases, failure_results)
+
+
+def report(out, cases, failure_results):
+    """Figures 1, 7 and 8 and the Markdown tables from the study's results."""
     figure1(out, dict(cases[0], name=cases[0]["slug"]))
     figure7(out, cases[0])
     figure8(out, cases)
 
     print("| scene, map | material | records | cache s | relMSE cache | relMSE MC, same time | "
-          "MC / cache | dense-cache s | relMSE dense | convolution share |")
+          "MC / cache | p99 error cache / MC | dense-cache s | convolution share, trees / dense |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     for c in cases:
         k, d, m = c["cache"], c["dense"], c["mc"]
-        print("| %s | %s | %d | %.2f | %.2e | %.2e (%d spp) | %.1fx | %.2f | %.2e | %.1f %% |" % (
-            c["name"], c["material"], k["records"], k["total_s"], k["relmse"], m["relmse"],
-            m["spp"], m["relmse"] / k["relmse"], d["total_s"], d["relmse"],
-            100 * k["convolution_s"] / k["total_s"]))
+        print("| %s | %s | %d | %.2f | %.2e | %.2e (%d spp) | %.1fx | %.1f %% / %.1f %% | %.2f | "
+              "%.1f %% / %.1f %% |" % (
+                  c["name"], c["material"], k["records"], k["total_s"], k["relmse"], m["relmse"],
+                  m["spp"], m["relmse"] / k["relmse"], 100 * k["p99_relerr"],
+                  100 * m["p99_relerr"], d["total_s"], 100 * k["convolution_s"] / k["total_s"],
+                  100 * d["convolution_s"] / d["total_s"]))
     print()
-    print("| failure case | records | cache s | relMSE cache | relMSE MC, same time | MC / cache |")
-    print("|---|---|---|---|---|---|")
+    print("| failure case | records | cache s | relMSE cache | relMSE MC, same time | MC / cache | "
+          "p99 error cache / MC |")
+    print("|---|---|---|---|---|---|---|")
     for c in failure_results:
         k, m = c["cache"], c["mc"]
-        print("| %s | %d | %.2f | %.2e | %.2e | %.1fx |" % (
+        print("| %s | %d | %.2f | %.2e | %.2e | %.1fx | %.1f %% / %.1f %% |" % (
             c["name"], k["records"], k["total_s"], k["relmse"], m["relmse"],
-            m["relmse"] / k["relmse"]))
+            m["relmse"] / k["relmse"], 100 * k["p99_relerr"], 100 * m["p99_relerr"]))
 
 
 if __name__ == "__main__":

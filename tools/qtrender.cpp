@@ -212,6 +212,7 @@ int main(int argc, char** argv) {
       if (errors) {
         j["relmse"] = errors->relative_mse;
         j["rmse"] = errors->rmse;
+        j["p99_relerr"] = errors->p99_relative_error;
         j["compared_pixels"] = errors->pixels;
       }
       std::cout << j.dump() << "\n";
@@ -228,7 +229,9 @@ int main(int argc, char** argv) {
           t.record_tracing, t.projection, t.lookup, t.interpolation, result.records,
           double(result.record_bytes) / (1 << 20));
     if (errors)
-      std::printf("against %s: relative MSE %.3g, RMSE %.3g over %zu pixels\n", compare.c_str(),
-                  errors->relative_mse, errors->rmse, errors->pixels);
+      std::printf("against %s: relative MSE %.3g, RMSE %.3g, 99th percentile of the relative "
+                  "error %.3g, over %zu pixels\n",
+                  compare.c_str(), errors->relative_mse, errors->rmse,
+                  errors->p99_relative_error, errors->pixels);
   });
 }

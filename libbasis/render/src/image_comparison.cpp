@@ -1,5 +1,6 @@
 #include "basis/render/image_comparison.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -28,15 +29,23 @@ ImageErrors compare_images(const Image& image, const Image& reference,
   mean /= 3.0 * double(e.pixels);
   const double eps = 0.01 * mean * mean;
   double relative = 0, squared = 0;
+  std::vector<double> per_pixel;
+  per_pixel.reserve(e.pixels);
   for (int y = 0; y < image.height; ++y)
     for (int x = 0; x < image.width; ++x) {
       if (!covered[std::size_t(y) * image.width + x]) continue;
+      double pixel = 0;
       for (int c = 0; c < 3; ++c) {
         const double r = reference.at(x, y, c), d = image.at(x, y, c) - r;
-        relative += d * d / (r * r + eps);
+        pixel += d * d / (r * r + eps);
         squared += d * d;
       }
+      relative += pixel;
+      per_pixel.push_back(std::sqrt(pixel / 3));
     }
+  const auto p99 = per_pixel.begin() + std::ptrdiff_t(per_pixel.size() * 99 / 100);
+  std::nth_element(per_pixel.begin(), p99, per_pixel.end());
+  e.p99_relative_error = *p99;
   e.relative_mse = relative / (3.0 * double(e.pixels));
   e.rmse = std::sqrt(squared / (3.0 * double(e.pixels)));
   return e;

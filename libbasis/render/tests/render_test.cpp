@@ -271,6 +271,29 @@ TEST(Renderer, MonteCarloWithABudgetRendersWholeSamplesThatFit) {
   EXPECT_LT(r.timings.total, 0.3 * 1.6 + 0.1);
 }
 
+TEST(ImageComparison, RelativeErrorsAreThoseOfTheDefinition) {
+  // 100 covered pixels of reference 1 (eps = 0.01), one of them off by 0.5 in every channel,
+  // two more off by 0.1 in red only; a pixel that is not covered differs and does not count.
+  Image reference(11, 10, 3), image(11, 10, 3);
+  std::fill(reference.pixels.begin(), reference.pixels.end(), 1.f);
+  image.pixels = reference.pixels;
+  std::vector<std::uint8_t> covered(110, 1);
+  for (int y = 0; y < 10; ++y)
+    covered[std::size_t(y) * 11 + 10] = 0;
+  image.at(10, 3, 0) = 9;
+  for (int c = 0; c < 3; ++c)
+    image.at(2, 2, c) = 1.5f;
+  image.at(5, 5, 0) = image.at(6, 5, 0) = 1.1f;
+  const ImageErrors e = compare_images(image, reference, covered);
+  EXPECT_EQ(e.pixels, 100u);
+  const double big = 0.25 / 1.01, small = 0.01 / 1.01;
+  EXPECT_NEAR(e.relative_mse, (3 * big + 2 * small) / 300, 1e-9);
+  EXPECT_NEAR(e.rmse, std::sqrt((3 * 0.25 + 2 * 0.01) / 300), 1e-7);
+  // Sorted per-pixel errors: 97 zeros, two of sqrt(small / 3), one of sqrt(big); the 99th
+  // (index 99) is the largest.
+  EXPECT_NEAR(e.p99_relative_error, std::sqrt(big), 1e-7);
+}
+
 // ---------------------------------------------------------------- files
 
 TEST(TriangleMesh, VertexNormalsAreInterpolatedAcrossTriangles) {

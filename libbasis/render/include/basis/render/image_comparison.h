@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <span>
+#include <vector>
 
 #include "basis/io/image.h"
 
@@ -13,6 +14,9 @@ struct ImageErrors {
   // m the reference's mean over those pixels and channels (relative MSE, scale-free).
   double relative_mse = 0;
   double rmse = 0;  // square root of the mean of (I - R)^2 over the same values
+  // The 99th percentile over covered pixels of the pixel's relative error, the square root of
+  // its channels' mean (I - R)^2 / (R^2 + eps): where an image fails locally.
+  double p99_relative_error = 0;
   std::size_t pixels = 0;
 };
 
