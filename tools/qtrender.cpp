@@ -229,9 +229,10 @@ int main(int argc, char** argv) {
           t.record_tracing, t.projection, t.lookup, t.interpolation, result.records,
           double(result.record_bytes) / (1 << 20));
     if (errors)
-      std::printf("against %s: relative MSE %.3g, RMSE %.3g, 99th percentile of the relative "
-                  "error %.3g, over %zu pixels\n",
-                  compare.c_str(), errors->relative_mse, errors->rmse,
-                  errors->p99_relative_error, errors->pixels);
+      std::printf(
+          "against %s: relative MSE %.3g, RMSE %.3g, 99th percentile of the relative "
+          "error %.3g, over %zu pixels\n",
+          compare.c_str(), errors->relative_mse, errors->rmse, errors->p99_relative_error,
+          errors->pixels);
   });
 }

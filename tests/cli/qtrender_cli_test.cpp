@@ -106,10 +106,10 @@ TEST(QtrenderCli, AnInterruptedRenderWritesNothing) {
   TempDir dir;
   write_text(dir.file("m.json"), R"({"model": "lambert", "albedo": 0.5})");
   write_text(dir.file("s.json"), scene_text(kCamera, "m.json"));
-  const auto r = run_tool("qtrender",
-                          {dir.file("s.json"), "--method", "mc", "--spp", "1000000", "-o",
-                           dir.file("out.exr")},
-                          "", 500);
+  const auto r = run_tool(
+      "qtrender",
+      {dir.file("s.json"), "--method", "mc", "--spp", "1000000", "-o", dir.file("out.exr")}, "",
+      500);
   EXPECT_EQ(r.status, 130) << r.err;
   EXPECT_EQ(line_count(r.err), 1) << r.err;
   EXPECT_FALSE(std::filesystem::exists(dir.file("out.exr")));

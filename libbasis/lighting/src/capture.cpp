@@ -143,9 +143,11 @@ BrightPieces gather_bright_pieces(const Environment& environment, const Vec3& or
     const Vec3& centre = b.centre;
     std::size_t ray = out.shadow_rays.size();
     bool shared = false;
+    std::size_t key = 0;
     if (options.shared_bright_rays && b.light < 0 && frame.to_local(centre).z() > 0) {
       const auto [cx, cy] = cosine_hemisphere_texel(frame.to_local(centre), n);
-      const auto [at, inserted] = texel_ray.try_emplace(std::size_t(cy) * n + cx, ray);
+      key = std::size_t(cy) * n + cx + 1;
+      const auto [at, inserted] = texel_ray.try_emplace(key, ray);
       ray = at->second;
       shared = !inserted;
     }
@@ -172,6 +174,8 @@ BrightPieces gather_bright_pieces(const Environment& environment, const Vec3& or
     else
       environment.for_each_subpixel(b.row, b.column, b.column + 1, s, piece);
     if (any && !shared) out.shadow_rays.push_back({origin, centre});
+    // A texel's first pixel that left no piece (all below the horizon) gives it no ray.
+    if (!any && !shared && key != 0) texel_ray.erase(key);
   }
   return out;
 }
