@@ -85,7 +85,9 @@ void render_monte_carlo(const RenderScene& scene, const RenderOptions& options,
   const auto t0 = Clock::now();
   int done = 0;
   const bool budgeted = options.time_budget > 0;
-  int pass = budgeted ? 1 : options.spp;
+  // Passes of at most kPassSamples samples, so that interruption is prompt whatever --spp says.
+  constexpr int kPassSamples = 16;
+  int pass = budgeted ? 1 : std::min(options.spp, kPassSamples);
   while (pass > 0) {
     const auto pass_start = Clock::now();
     for_each_row(h, control, [&](int y) {
@@ -101,10 +103,15 @@ void render_monte_carlo(const RenderScene& scene, const RenderOptions& options,
     });
     done += pass;
     control.report(std::size_t(done), std::size_t(budgeted ? done + 1 : options.spp));
-    if (!budgeted) break;
+    if (!budgeted) {
+      pass = std::min(options.spp - done, kPassSamples);
+      continue;
+    }
     const double per_sample = since(pass_start) / pass;
     const double left = options.time_budget - since(start);
-    pass = per_sample > 0 ? int(std::min(left / per_sample, double(std::max(1, 2 * done)))) : 0;
+    pass = per_sample > 0 ? int(std::min({left / per_sample, double(std::max(1, 2 * done)),
+                                          double(kPassSamples)}))
+                          : 0;
   }
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
