@@ -92,7 +92,11 @@ TEST(QtrenderCli, BadScenesGetOneLineAndNoImage) {
     const auto r = run_tool("qtrender", {dir.file(name + ".json"), "-o", out, "--method", "mc"});
     EXPECT_EQ(r.status, 1) << name << ": " << r.err;
     EXPECT_EQ(line_count(r.err), 1) << name << ": " << r.err;
-    EXPECT_NE(r.err.find(name == "map" ? "gone.exr" : ".json"), std::string::npos) << r.err;
+    const std::string named = name == "map"        ? "gone.exr"
+                              : name == "material" ? "broken.json"
+                              : name == "mesh"     ? "gone.obj"
+                                                   : name + ".json";
+    EXPECT_NE(r.err.find(named), std::string::npos) << r.err;
     EXPECT_FALSE(std::filesystem::exists(out)) << name;
   }
   const auto usage = run_tool("qtrender", {dir.file("nowhere.json"), "-o", dir.file("x.png")});

@@ -234,8 +234,8 @@ Color Environment::smooth_radiance(const Vec3& w, double pixels) const {
   const Vec3 map(c * w.x() + s * w.y(), -s * w.x() + c * w.y(), w.z());
   const Vec2 p = direction_to_latlong(map, width_, height_);
   // Bilinear between the level's pixel centres, wrapping around in x.
-  const double scale = double(l.width) / width_;
-  const double x = p.x() * scale - 0.5, y = std::clamp(p.y() * scale - 0.5, 0.0, l.height - 1.0);
+  const double x = p.x() * l.width / width_ - 0.5;
+  const double y = std::clamp(p.y() * l.height / height_ - 0.5, 0.0, l.height - 1.0);
   const int x0 = int(std::floor(x)), y0 = std::clamp(int(y), 0, std::max(0, l.height - 2));
   const double fx = x - x0, fy = std::clamp(y - y0, 0.0, 1.0);
   const int xa = (x0 % l.width + l.width) % l.width, xb = (xa + 1) % l.width;

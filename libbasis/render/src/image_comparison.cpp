@@ -27,7 +27,8 @@ ImageErrors compare_images(const Image& image, const Image& reference,
     }
   if (e.pixels == 0) return e;
   mean /= 3.0 * double(e.pixels);
-  const double eps = 0.01 * mean * mean;
+  // A black reference has no scale: eps then keeps black pixels' error at 0, not 0 / 0.
+  const double eps = mean > 0 ? 0.01 * mean * mean : 1e-30;
   double relative = 0, squared = 0;
   std::vector<double> per_pixel;
   per_pixel.reserve(e.pixels);

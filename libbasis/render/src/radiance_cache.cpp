@@ -10,6 +10,7 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "basis/core/file_error.h"
 #include "basis/core/projection.h"
 #include "basis/lighting/shading.h"
 
@@ -95,6 +96,20 @@ RadianceCache::RadianceCache(const RenderScene& scene, const CacheOptions& optio
         t.tilt.shape().resolution > options.resolution)
       throw std::invalid_argument("dense records are coarser than the tilt entries of " + m.path);
   }
+  // Compensation reads every material's tilt entries, and dense records keep one copy of their
+  // radiance at the tilt entries' resolution, which must then be the same for all materials.
+  if (options.tilt == TiltCompensation::compensated)
+    for (const Material& m : scene.materials) {
+      const BrdfTableView t = m.table_view();
+      if (!t.has_tilt())
+        throw FileError(m.path +
+                        ": the table holds no tilt derivatives, which the cache's "
+                        "rotation compensation needs (tabulate it without --no-tilt, "
+                        "or render with --tilt reparametrised)");
+      if (options.dense &&
+          t.tilt.shape().resolution != scene.materials.front().table_view().tilt.shape().resolution)
+        throw std::invalid_argument("dense records need one tilt resolution for all materials");
+    }
   if (options.dense)
     for (const Material& m : scene.materials)
       dense_tables_.push_back(std::make_unique<DenseTable>(m.table_view(), options.resolution));
@@ -284,6 +299,8 @@ std::size_t RadianceCache::bytes() const {
   if (!options_.dense) return records_.trees.view().bytes();
   std::size_t b = 0;
   for (const Grid& g : grids_)
+    b += g.texels.size() * sizeof(float);
+  for (const Grid& g : tilt_grids_)
     b += g.texels.size() * sizeof(float);
   return b;
 }
