@@ -54,6 +54,14 @@ def floor(size=6.0):
         [(0, 1, 2), (0, 2, 3)]
 
 
+def write_obj_on_floor(path, vertices, faces, normals):
+    """Writes a mesh with vertex normals and the 12 x 12 floor (normal +z) under it."""
+    fv, ff = floor()
+    base = len(vertices)
+    write_obj(path, vertices + fv, faces + [(a + base, b + base, c + base) for a, b, c in ff],
+              normals + [[0, 0, 1]] * 4)
+
+
 def make_bunny(path):
     """glmark2's bunny (y up, about 2 units tall) turned z up, on a 12 x 12 floor, with vertex
     normals averaged over the faces that share a position."""
@@ -83,12 +91,7 @@ def make_bunny(path):
         s = sums[key(v)]
         length = math.sqrt(sum(c * c for c in s)) or 1
         normals.append([c / length for c in s])
-    fv, ff = floor()
-    base = len(vertices)
-    vertices += fv
-    normals += [[0, 0, 1]] * 4
-    faces += [(a + base, b + base, c + base) for a, b, c in ff]
-    write_obj(path, vertices, faces, normals)
+    write_obj_on_floor(path, vertices, faces, normals)
 
 
 def make_spheres(path):
@@ -113,12 +116,7 @@ def make_spheres(path):
                     faces.append((a, c, b))
                 if i < rings - 1:
                     faces.append((b, c, d))
-    fv, ff = floor()
-    base = len(vertices)
-    vertices += fv
-    normals += [[0, 0, 1]] * 4
-    faces += [(a + base, b + base, c + base) for a, b, c in ff]
-    write_obj(path, vertices, faces, normals)
+    write_obj_on_floor(path, vertices, faces, normals)
 
 
 def make_pole(path):

@@ -255,11 +255,7 @@ Rgb RadianceCache::radiance(std::uint32_t k, const ShadingPoint& point) const {
   const Frame record = view_.frame(k);
   const Frame shading =
       options_.tilt == TiltCompensation::none ? record : tilted_frame(record, tilt);
-  Vec3 wo = shading.to_local(point.wo);
-  if (wo.z() < 1e-3) {
-    wo.z() = 1e-3;
-    wo.normalize();
-  }
+  const Vec3 wo = above_horizon(shading.to_local(point.wo));
   if (!options_.dense) {
     ShadingOptions shade_options;
     shade_options.wo = wo;

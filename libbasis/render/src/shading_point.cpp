@@ -4,13 +4,16 @@
 
 namespace basis {
 
-Vec3 ShadingPoint::local_wo() const {
-  Vec3 w = frame().to_local(wo);
+Vec3 above_horizon(Vec3 w) {
   if (w.z() < 1e-3) {
     w.z() = 1e-3;
     w.normalize();
   }
   return w;
+}
+
+Vec3 ShadingPoint::local_wo() const {
+  return above_horizon(frame().to_local(wo));
 }
 
 ShadingPoint shading_point(const RenderScene& scene, const Ray& ray, const RayIntersection& hit,

@@ -24,6 +24,9 @@ struct ShadingPoint {
   Vec3 local_wo() const;
 };
 
+// w (unit, local) pulled just above the horizon (z >= 1e-3) when it lies at or below it.
+Vec3 above_horizon(Vec3 w);
+
 // The shading point of an intersection of `ray` (unit direction) with the scene's mesh.
 ShadingPoint shading_point(const RenderScene& scene, const Ray& ray, const RayIntersection& hit,
                            double pixel_angle);
