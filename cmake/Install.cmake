@@ -40,7 +40,7 @@ configure_file(${PROJECT_SOURCE_DIR}/cmake/libbasis.pc.in ${PROJECT_BINARY_DIR}/
 install(FILES ${PROJECT_BINARY_DIR}/libbasis.pc DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig)
 
 if(BASIS_BUILD_TOOLS)
-  install(TARGETS qtinfo brdf2qt capture2qt qtconvolve qtrender RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+  install(TARGETS qtinfo brdf2qt capture2qt qtmerge qtconvolve qtrender RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
   if(BASIS_BUILD_BENCHMARKS)
     install(TARGETS qtbench RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
   endif()

@@ -11,7 +11,7 @@ packages=(
   libopenexr-dev libopenimageio-dev openimageio-tools
   libeigen3-dev libcli11-dev libembree-dev libtbb-dev
   libflatbuffers-dev flatbuffers-compiler
-  nlohmann-json3-dev libtinyobjloader-dev libnanoflann-dev
+  nlohmann-json3-dev libtinyobjloader-dev libnanoflann-dev libxxhash-dev xxhash
   libgtest-dev libgmock-dev libbenchmark-dev
   python3-matplotlib python3-dev python3-numpy python3-pytest pybind11-dev
   blender-data glmark2-data

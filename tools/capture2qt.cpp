@@ -11,6 +11,7 @@
 #include "basis/core/version.h"
 #include "basis/format/qt_file.h"
 #include "basis/format/qt_recipe.h"
+#include "basis/format/qt_shard.h"
 #include "basis/io/image.h"
 #include "basis/io/image_file.h"
 #include "basis/lighting/capture.h"
@@ -34,16 +35,24 @@ int main(int argc, char** argv) {
       "the BRDF at their exact direction; --splat-lights puts them into texels instead. "
       "An environment map with NaN or infinite texels is refused (exit 1) unless --zero-invalid "
       "reads them as 0; negative texels are read as 0; a warning counts what was set to 0.\n\n"
+      "With --shard I/N the work is one shard of a larger run, as for a job array (see "
+      "scripts/slurm): shard I of N captures its own share of the points, each with the jitter it "
+      "has in the whole run, so that qtmerge joins the shards into exactly the bytes one process "
+      "writes, and qtconvolve and qtinfo read them through a manifest (qtmerge --manifest). A "
+      "shard's file gets its checksum beside it (OUT.xxh128); --skip-existing leaves a shard whose "
+      "file is complete and unaltered as it is, so that re-running an array re-does only the "
+      "shards that failed.\n\n"
       "Or, with --image, compress one capture image (square, power-of-two side, texel (x, y) "
       "at pixel column x, row y) into a single-tree .qt file.",
       "capture2qt");
   std::string env_path, env_constant, scene_path, at, normal_text = "0,0,1", points_path, output,
-                                                      dump, image_path, bounds = "l2";
+                                                      dump, image_path, bounds = "l2", shard_text;
   double env_rotate = 0, tolerance = 0.05;
   long long sample = 0;
   std::uint64_t seed = 1;
   int res = 128, spp = 4, threads = 0;
-  bool absolute = false, zero_invalid = false, quiet = false, json = false, splat = false;
+  bool absolute = false, zero_invalid = false, quiet = false, json = false, splat = false,
+       skip_existing = false;
   auto* light = app.add_option_group("light", "environment (one of)");
   light->add_option("--env", env_path,
                     "lat-long environment map (EXR, HDR, any format OpenImageIO reads; at most "
@@ -60,8 +69,9 @@ int main(int argc, char** argv) {
   where
       ->add_option("--sample", sample,
                    "N points uniformly over the scene's surfaces, normals facing the side the "
-                   "triangles' counter-clockwise winding faces (up to 10^7)")
-      ->check(CLI::Range(1LL, 10000000LL));
+                   "triangles' counter-clockwise winding faces (up to 10^7 in one file, 10^12 "
+                   "over the shards of a run)")
+      ->check(CLI::Range(1LL, 1000000000000LL));
   where->add_option("--image", image_path, "compress this capture image instead of tracing");
   app.add_option("--normal", normal_text, "normal at --at (default 0,0,1)");
   app.add_option("--seed", seed, "seed of the jitter and of --sample (default 1)");
@@ -93,6 +103,13 @@ int main(int argc, char** argv) {
                "put compact lights into the texels they fall in instead of keeping them apart");
   app.add_option("--threads", threads, "worker threads (default: all cores)")
       ->check(CLI::Range(1, 1024));
+  app.add_option("--shard", shard_text,
+                 "capture only shard I of N of the points (I from 0, e.g. "
+                 "$SLURM_ARRAY_TASK_ID/4): points [floor(I P / N), floor((I + 1) P / N)) of the P "
+                 "points, into OUT (default captures.I.qt) with its checksum in OUT.xxh128");
+  app.add_flag("--skip-existing", skip_existing,
+               "with --shard: if OUT already holds this shard, complete and unaltered (its "
+               "checksum matches) and made with the same parameters, leave it and exit 0");
   app.add_flag("--zero-invalid", zero_invalid,
                "read NaN and infinite environment texels as 0 instead of refusing the map");
   app.add_flag("--json", json, "print the summary as JSON");
@@ -183,16 +200,47 @@ int main(int argc, char** argv) {
     std::vector<basis::SurfacePoint> points;
     if (int(!at.empty()) + int(!points_path.empty()) + int(sample > 0) != 1)
       throw UsageError("give the points: --at X,Y,Z, --points FILE or --sample N");
+    if (skip_existing && shard_text.empty())
+      throw UsageError("--skip-existing applies to shards: give --shard I/N");
+    // The run's points, and the shard of them this process captures.
+    std::uint64_t total_points = 0;
     if (!at.empty()) {
       const basis::Vec3 normal = basis::cli::parse_triple(normal_text, "--normal");
       if (!(normal.norm() > 1e-12)) throw UsageError("--normal must not be zero");
       points.push_back({basis::cli::parse_triple(at, "--at"), normal.normalized()});
+      total_points = 1;
     } else if (!points_path.empty()) {
       points = basis::read_points(points_path);
+      total_points = points.size();
     } else {
       if (!mesh) throw UsageError("--sample places points on a scene: give --scene");
-      points = basis::sample_surface(*mesh, std::size_t(sample), seed);
+      total_points = std::uint64_t(sample);
     }
+    basis::PointRange mine{0, total_points};
+    if (!shard_text.empty()) {
+      basis::Shard shard;
+      try {
+        shard = basis::parse_shard(shard_text);
+      } catch (const std::invalid_argument& e) {
+        throw UsageError(std::string("--shard: ") + e.what());
+      }
+      if (std::uint64_t(shard.count) > total_points)
+        throw UsageError("--shard " + shard_text + ": " + std::to_string(shard.count) +
+                         " shards of " + std::to_string(total_points) +
+                         " points leave some empty; use at most " + std::to_string(total_points));
+      recipe.shard = basis::CaptureShard{shard, total_points};
+      mine = recipe.shard->points();
+      if (output.empty()) output = "captures." + std::to_string(shard.index) + ".qt";
+    }
+    if (mine.count > basis::kMaxSurfacePoints)
+      throw UsageError(std::to_string(mine.count) + " points in one file, more than the " +
+                       std::to_string(basis::kMaxSurfacePoints) +
+                       " a capture set holds: split the run with --shard I/N");
+    if (sample > 0)
+      points = basis::sample_surface(*mesh, mine, seed);
+    else if (mine.count != points.size())
+      points = std::vector<basis::SurfacePoint>(points.begin() + std::ptrdiff_t(mine.first),
+                                                points.begin() + std::ptrdiff_t(mine.end()));
 
     recipe.options = {.resolution = res,
                       .strata = strata,
@@ -204,6 +252,22 @@ int main(int argc, char** argv) {
     options.capture = recipe.options;
     options.projection = recipe.projection;
     options.bounds = bound_kind;
+    options.first_index = mine.first;
+    if (output.empty()) output = "captures.qt";
+    std::vector<std::string> sources;
+    for (const std::string& source : {env_path, scene_path, points_path})
+      if (!source.empty()) sources.push_back(source);
+    if (recipe.shard) {
+      const auto why = basis::why_shard_must_be_made(output, recipe, sources, bound_kind);
+      if (skip_existing && !why) {
+        if (!quiet)
+          std::printf("%s: shard %s present, complete and unaltered: skipped\n", output.c_str(),
+                      shard_text.c_str());
+        return;
+      }
+      if (skip_existing && !quiet)
+        std::fprintf(stderr, "capture2qt: making shard %s: %s\n", shard_text.c_str(), why->c_str());
+    }
     if (!dump.empty()) {
       if (!std::filesystem::is_directory(dump))
         throw basis::FileError(dump + ": not a directory (--dump writes into an existing one)");
@@ -217,7 +281,6 @@ int main(int argc, char** argv) {
                            basis::grid_to_image(texels));
       };
     }
-    if (output.empty()) output = "captures.qt";
     const auto arena = basis::cli::thread_arena(threads);
     basis::cli::ProgressBar progress("capture2qt", quiet);
     basis::CaptureTimings timings;
@@ -227,13 +290,13 @@ int main(int argc, char** argv) {
     });
     progress.finish();
 
-    std::vector<std::string> sources;
-    for (const std::string& source : {env_path, scene_path, points_path})
-      if (!source.empty()) sources.push_back(source);
     const auto bytes = basis::encode_capture_set(
         set.view(), recipe.projection,
         {"capture2qt", basis::kVersion, basis::capture_parameters(recipe), sources});
-    basis::write_qt(output, bytes);
+    if (recipe.shard)
+      basis::write_shard_file(output, bytes);
+    else
+      basis::write_qt(output, bytes);
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (quiet) return;
@@ -241,6 +304,8 @@ int main(int argc, char** argv) {
     if (json) {
       std::cout << nlohmann::ordered_json{{"output", output},
                                           {"captures", set.positions.size()},
+                                          {"first_point", mine.first},
+                                          {"total_points", total_points},
                                           {"nodes", nodes},
                                           {"environment_lights", environment.lights().size()},
                                           {"lights", set.lights.size()},

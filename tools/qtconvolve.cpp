@@ -7,6 +7,8 @@
 
 #include "basis/core/version.h"
 #include "basis/format/qt_convolution.h"
+#include "basis/format/qt_manifest.h"
+#include "basis/io/atomic_file.h"
 #include "basis/io/image_file.h"
 #include "basis/io/picture.h"
 #include "basis/study/lookup_reference.h"
@@ -17,18 +19,26 @@ namespace {
 
 using basis::cli::UsageError;
 
+// Blocks of at most this many results are computed at a time when an input is a manifest, so
+// that memory stays bounded (a block's dense grids are 192 KiB per 128^2 RGB capture).
+constexpr std::size_t kManifestBlock = 4096;
+
 struct Row {
+  std::uint64_t index = 0;
   basis::Convolution result;
   std::optional<basis::Rgb> reference;
 };
 
-// Median times over the whole batch, repeated for at least 0.1 s per run.
+// Median times over the whole batch, repeated for at least 0.1 s per run, summed over blocks.
 struct Timing {
-  double ns_per_lookup = -1;  // per result
-  double ns_per_convolution = -1;
+  double ns = 0;  // over all results timed
+  std::uint64_t results = 0;
+  int convolutions_per_result = 1;
+  double ns_per_lookup() const { return ns / double(std::max<std::uint64_t>(1, results)); }
+  double ns_per_convolution() const { return ns_per_lookup() / convolutions_per_result; }
 };
 
-Timing time_results(const basis::FileConvolution& convolution) {
+void time_results(const basis::FileConvolution& convolution, Timing& timing) {
   float sink = 0;
   const double ns = basis::median_time_ns(
       [&] {
@@ -37,8 +47,9 @@ Timing time_results(const basis::FileConvolution& convolution) {
       },
       0.1);
   if (sink == -1) std::cerr << "";
-  const double per_result = ns / double(convolution.size());
-  return {per_result, per_result / convolution.convolutions_per_result()};
+  timing.ns += ns;
+  timing.results += convolution.size();
+  timing.convolutions_per_result = convolution.convolutions_per_result();
 }
 
 // "N ns per convolution (M ns per lookup)" for the results, and for the trees beside them.
@@ -46,72 +57,87 @@ std::string timing_text(const Timing& time, const std::optional<Timing>& trees) 
   char text[256];
   if (!trees) {
     std::snprintf(text, sizeof text, "%.1f ns per convolution (%.1f ns per lookup)",
-                  time.ns_per_convolution, time.ns_per_lookup);
+                  time.ns_per_convolution(), time.ns_per_lookup());
   } else {
     std::snprintf(text, sizeof text,
                   "dense %.1f ns per convolution (%.1f ns per lookup); trees %.1f ns (%.1f ns); "
                   "trees %.1fx faster",
-                  time.ns_per_convolution, time.ns_per_lookup, trees->ns_per_convolution,
-                  trees->ns_per_lookup, time.ns_per_lookup / trees->ns_per_lookup);
+                  time.ns_per_convolution(), time.ns_per_lookup(), trees->ns_per_convolution(),
+                  trees->ns_per_lookup(), time.ns_per_lookup() / trees->ns_per_lookup());
   }
   return text;
 }
 
-void print_json(const std::vector<Row>& rows, const std::optional<Timing>& time,
-                const std::optional<Timing>& trees) {
-  nlohmann::ordered_json j;
-  j["results"] = nlohmann::ordered_json::array();
-  for (std::size_t k = 0; k < rows.size(); ++k) {
-    nlohmann::ordered_json r = {
-        {"index", k}, {"value", rows[k].result.value}, {"bound", rows[k].result.bound}};
-    if (rows[k].reference) {
-      basis::Rgb d;
-      for (int c = 0; c < 3; ++c)
-        d[c] = rows[k].result.value[c] - (*rows[k].reference)[c];
-      r["reference"] = *rows[k].reference;
-      r["difference"] = d;
-    }
-    j["results"].push_back(r);
+// Results as text, written block by block: to stdout, or to a file put in place once complete.
+class Output {
+ public:
+  explicit Output(const std::string& path) {
+    if (!path.empty()) file_.emplace(path);
   }
-  if (time) {
-    j["ns_per_convolution"] = time->ns_per_convolution;
-    j["ns_per_lookup"] = time->ns_per_lookup;
+  void write(const std::string& text) {
+    if (file_)
+      file_->write(text);
+    else
+      std::fwrite(text.data(), 1, text.size(), stdout);
   }
-  if (trees) {
-    j["tree_ns_per_convolution"] = trees->ns_per_convolution;
-    j["tree_ns_per_lookup"] = trees->ns_per_lookup;
+  void commit() {
+    if (file_) file_->commit();
+    std::fflush(stdout);
   }
-  std::cout << j.dump(1) << "\n";
+
+ private:
+  std::optional<basis::AtomicFileWriter> file_;
+};
+
+std::string json_row(const Row& row) {
+  nlohmann::ordered_json r = {
+      {"index", row.index}, {"value", row.result.value}, {"bound", row.result.bound}};
+  if (row.reference) {
+    basis::Rgb d;
+    for (int c = 0; c < 3; ++c)
+      d[c] = row.result.value[c] - (*row.reference)[c];
+    r["reference"] = *row.reference;
+    r["difference"] = d;
+  }
+  return r.dump();
 }
 
-void print_csv(const std::vector<Row>& rows, bool reference) {
-  std::printf("index,r,g,b,bound_r,bound_g,bound_b%s\n",
-              reference ? ",reference_r,reference_g,reference_b" : "");
-  for (std::size_t k = 0; k < rows.size(); ++k) {
-    const auto& r = rows[k].result;
-    std::printf("%zu,%.7g,%.7g,%.7g,%.4g,%.4g,%.4g", k, r.value[0], r.value[1], r.value[2],
-                r.bound[0], r.bound[1], r.bound[2]);
-    if (rows[k].reference)
-      std::printf(",%.7g,%.7g,%.7g", (*rows[k].reference)[0], (*rows[k].reference)[1],
-                  (*rows[k].reference)[2]);
-    std::printf("\n");
-  }
+std::string csv_row(const Row& row) {
+  const auto& r = row.result;
+  char line[512];
+  int n = std::snprintf(line, sizeof line, "%llu,%.7g,%.7g,%.7g,%.4g,%.4g,%.4g",
+                        static_cast<unsigned long long>(row.index), r.value[0], r.value[1],
+                        r.value[2], r.bound[0], r.bound[1], r.bound[2]);
+  if (row.reference)
+    n += std::snprintf(line + n, sizeof line - std::size_t(n), ",%.7g,%.7g,%.7g",
+                       (*row.reference)[0], (*row.reference)[1], (*row.reference)[2]);
+  std::snprintf(line + n, sizeof line - std::size_t(n), "\n");
+  return line;
 }
 
-void print_text(const std::vector<Row>& rows, const std::string& title, bool reference) {
-  std::printf("# %s, RGB value +- certified bound%s\n", title.c_str(),
-              reference ? "; full-resolution reference; difference" : "");
-  for (std::size_t k = 0; k < rows.size(); ++k) {
-    const auto& r = rows[k].result;
-    std::printf("%zu  %.6g %.6g %.6g  +- %.3g %.3g %.3g", k, r.value[0], r.value[1], r.value[2],
-                r.bound[0], r.bound[1], r.bound[2]);
-    if (rows[k].reference) {
-      const auto& f = *rows[k].reference;
-      std::printf("  ref %.6g %.6g %.6g  diff %.3g %.3g %.3g", f[0], f[1], f[2], r.value[0] - f[0],
-                  r.value[1] - f[1], r.value[2] - f[2]);
-    }
-    std::printf("\n");
+std::string text_row(const Row& row) {
+  const auto& r = row.result;
+  char line[512];
+  int n = std::snprintf(line, sizeof line, "%llu  %.6g %.6g %.6g  +- %.3g %.3g %.3g",
+                        static_cast<unsigned long long>(row.index), r.value[0], r.value[1],
+                        r.value[2], r.bound[0], r.bound[1], r.bound[2]);
+  if (row.reference) {
+    const auto& f = *row.reference;
+    n += std::snprintf(line + n, sizeof line - std::size_t(n),
+                       "  ref %.6g %.6g %.6g  diff %.3g %.3g %.3g", f[0], f[1], f[2],
+                       r.value[0] - f[0], r.value[1] - f[1], r.value[2] - f[2]);
   }
+  std::snprintf(line + n, sizeof line - std::size_t(n), "\n");
+  return line;
+}
+
+// The one result of two single trees.
+std::string integral_row(const Row& row) {
+  const auto& r = row.result;
+  char line[256];
+  std::snprintf(line, sizeof line, "integral %.7g %.7g %.7g  +- %.3g %.3g %.3g\n", r.value[0],
+                r.value[1], r.value[2], r.bound[0], r.bound[1], r.bound[2]);
+  return line;
 }
 
 }  // namespace
@@ -130,17 +156,25 @@ int main(int argc, char** argv) {
       "difference to the product of the full-resolution texels (for tables: of the four entries "
       "used, not of the BRDF between entries). Trees of different resolutions convolve as the "
       "piecewise-constant functions they are.\n"
+      "A capture set may also be given as a manifest listing the shard files of a sharded run "
+      "(qtmerge --manifest): it is read shard by shard, in bounded memory, each shard checked "
+      "against the manifest (size, checksum, which shard it is) as it is reached; a missing or "
+      "altered shard stops the run with one line naming it (results printed before it stay "
+      "printed; -o writes nothing then).\n"
       "Captures may carry directional lights (a sun kept apart by capture2qt): a table shades "
       "them with f at their direction (--lights); a product of captures counts each in the "
       "texel it falls in.",
       "qtconvolve");
   std::string a_path, b_path, wo_text = "0,0,1", normal_text, tilt_mode = "compensated", png,
                               lights_from = "brdf", interpolation = "hermite";
+  std::string shard_text, output;
   bool json = false, csv = false, reference = false, time = false, quiet = false, dense = false;
   double accuracy = 0;
   int threads = 0;
-  app.add_option("a", a_path, "first .qt file")->required();
-  app.add_option("b", b_path, "second .qt file")->required();
+  app.add_option("a", a_path, "first .qt file, or a manifest of a capture set's shards")
+      ->required();
+  app.add_option("b", b_path, "second .qt file, or a manifest of a capture set's shards")
+      ->required();
   app.add_option("--wo", wo_text,
                  "outgoing direction X,Y,Z in each capture's local frame (z the normal; default "
                  "the normal), z >= 0");
@@ -184,14 +218,22 @@ int main(int argc, char** argv) {
   app.add_option("--png", png, "draw the capture points from above, coloured by their values");
   app.add_option("--threads", threads, "worker threads for --reference (default: all cores)")
       ->check(CLI::Range(1, 1024));
+  app.add_option("--shard", shard_text,
+                 "compute only shard I of N of the results (I from 0, e.g. "
+                 "$SLURM_ARRAY_TASK_ID/8): results [floor(I P / N), floor((I + 1) P / N)) of P, "
+                 "with their indices in the whole set; the header (CSV, text) comes with shard 0 "
+                 "only, so that the shards' outputs concatenated in order are the whole output");
+  app.add_option("-o,--output", output,
+                 "write the results to this file, put in place only once complete, instead of "
+                 "printing them");
   app.add_flag("-q,--quiet", quiet, "no progress bar");
   app.set_version_flag("--version", basis::kVersion);
 
   return basis::cli::run(app, argc, argv, [&] {
     using basis::QtKind;
     if (json && csv) throw UsageError("--json and --csv exclude each other");
-    const basis::QtFile a = basis::QtFile::load(a_path);
-    const basis::QtFile b = basis::QtFile::load(b_path);
+    basis::CaptureSource a = basis::CaptureSource::open(a_path);
+    basis::CaptureSource b = basis::CaptureSource::open(b_path);
     basis::ShadingOptions shading;
     shading.wo = basis::cli::parse_triple(wo_text, "--wo");
     if (!(shading.wo.norm() > 1e-12)) throw UsageError("--wo must not be zero");
@@ -211,16 +253,10 @@ int main(int argc, char** argv) {
     const basis::LightBrdf light_brdf =
         lights_from == "brdf" ? basis::LightBrdf::spec : basis::LightBrdf::table;
     if (dense && shading.normal) throw UsageError("--dense takes untilted lookups (no --normal)");
-    const basis::FileConvolution trees(a, b, shading, light_brdf);
-    std::optional<basis::FileConvolution> dense_products;
-    if (dense) dense_products.emplace(a, b, shading, light_brdf, basis::Evaluation::dense);
-    const basis::FileConvolution& convolution = dense ? *dense_products : trees;
-    // Always said, -q or not: the lights lose accuracy (see --lights).
-    if (!convolution.warning().empty())
-      std::fprintf(stderr, "qtconvolve: warning: %s\n", convolution.warning().c_str());
-    const basis::QtFile* table = convolution.table();
-    const bool shades_captures = table && convolution.shaded().kind() == QtKind::capture_set;
-    if (!table && (!normal_text.empty() || wo_text != "0,0,1"))
+    const bool has_table = a.kind() == QtKind::brdf_table || b.kind() == QtKind::brdf_table;
+    const QtKind shaded_kind = a.kind() == QtKind::brdf_table ? b.kind() : a.kind();
+    const bool shades_captures = has_table && shaded_kind == QtKind::capture_set;
+    if (!has_table && (!normal_text.empty() || wo_text != "0,0,1"))
       throw UsageError("--wo and --normal apply to a BRDF table and captures");
     if (reference && (!shades_captures || shading.normal))
       throw UsageError("--reference compares an untilted BRDF table lookup with captures");
@@ -228,54 +264,131 @@ int main(int argc, char** argv) {
     if (!png.empty() && !shades_captures && !two_sets)
       throw UsageError("--png draws capture points: give captures");
 
-    std::vector<Row> rows(convolution.size());
-    for (std::size_t k = 0; k < rows.size(); ++k)
-      rows[k].result = convolution(k);
+    // The results this process computes: all, or its shard's.
+    const std::uint64_t total = basis::result_count(a, b);
+    basis::PointRange range{0, total};
+    if (!shard_text.empty()) {
+      basis::Shard shard;
+      try {
+        shard = basis::parse_shard(shard_text);
+      } catch (const std::invalid_argument& e) {
+        throw UsageError(std::string("--shard: ") + e.what());
+      }
+      if (std::uint64_t(shard.count) > total)
+        throw UsageError("--shard " + shard_text + ": " + std::to_string(shard.count) +
+                         " shards of " + std::to_string(total) +
+                         " results leave some empty; use at most " + std::to_string(total));
+      range = basis::shard_range(total, shard);
+    }
+    const bool manifests = a.is_manifest() || b.is_manifest();
+    const std::size_t block = manifests ? kManifestBlock : std::size_t(range.count);
+
+    Output out(output);
+    const bool single = total == 1 && !has_table && !json && !csv;
+    std::string title =
+        std::string(has_table ? "reflected radiance at each capture" : "integral at each point") +
+        (shading.normal ? " (tilted normal)" : "");
+    if (json) {
+      out.write("{\"results\": [");
+    } else if (range.first == 0 && csv) {  // shards after the first continue the first's table
+      out.write(std::string("index,r,g,b,bound_r,bound_g,bound_b") +
+                (reference ? ",reference_r,reference_g,reference_b" : "") + "\n");
+    } else if (range.first == 0 && !single) {
+      out.write("# " + title + ", RGB value +- certified bound" +
+                (reference ? "; full-resolution reference; difference" : "") + "\n");
+    }
 
     std::optional<Timing> timing, tree_timing;
-    if (time) timing = time_results(convolution);
-    if (time && dense) tree_timing = time_results(trees);
+    if (time) timing.emplace();
+    if (time && dense) tree_timing.emplace();
+    std::vector<basis::Vec3> positions;
+    std::vector<basis::Rgb> values;
+    const auto arena = basis::cli::thread_arena(threads);
+    basis::cli::ProgressBar progress(reference ? "qtconvolve --reference" : "qtconvolve",
+                                     quiet || (!reference && !manifests));
+    bool first_block = true;
+    std::uint64_t done = 0;
+    basis::for_each_block(a, b, range, block, [&](const basis::ConvolutionBlock& blk) {
+      progress.control().check();
+      const basis::FileConvolution trees(blk.a, blk.b, shading, light_brdf,
+                                         basis::Evaluation::trees, blk.ranges);
+      std::optional<basis::FileConvolution> dense_products;
+      if (dense)
+        dense_products.emplace(blk.a, blk.b, shading, light_brdf, basis::Evaluation::dense,
+                               blk.ranges);
+      const basis::FileConvolution& convolution = dense ? *dense_products : trees;
+      // Always said, -q or not: the lights lose accuracy (see --lights).
+      if (first_block && !convolution.warning().empty())
+        std::fprintf(stderr, "qtconvolve: warning: %s\n", convolution.warning().c_str());
 
-    if (reference) {
-      const auto arena = basis::cli::thread_arena(threads);
-      basis::cli::ProgressBar progress("qtconvolve --reference", quiet);
-      const std::vector<basis::Rgb> references = arena->execute([&] {
-        return basis::reference_lookups(*table, convolution.shaded(), shading.wo,
-                                        convolution.light_brdf(), shading.interpolation,
-                                        progress.control());
-      });
-      progress.finish();
-      for (std::size_t k = 0; k < rows.size(); ++k)
-        rows[k].reference = references[k];
-    }
+      std::vector<Row> rows(convolution.size());
+      for (std::size_t k = 0; k < rows.size(); ++k) {
+        rows[k].index = blk.first + k;
+        rows[k].result = convolution(k);
+      }
+      if (timing) time_results(convolution, *timing);
+      if (tree_timing) time_results(trees, *tree_timing);
+      if (reference) {
+        basis::TaskControl control = progress.control();
+        control.progress = [&](std::size_t d, std::size_t) {
+          progress.control().report(std::size_t(done) + d, std::size_t(range.count));
+        };
+        const std::vector<basis::Rgb> references = arena->execute([&] {
+          return basis::reference_lookups(*convolution.table(), convolution.shaded(),
+                                          convolution.shaded_range(), shading.wo,
+                                          convolution.light_brdf(), shading.interpolation, control);
+        });
+        for (std::size_t k = 0; k < rows.size(); ++k)
+          rows[k].reference = references[k];
+      }
+      if (!png.empty()) {
+        const basis::CaptureSetView& points = has_table ? convolution.shaded_captures()
+                                              : a.kind() == QtKind::capture_set
+                                                  ? convolution.captures_a()
+                                                  : convolution.captures_b();
+        positions.insert(positions.end(), points.positions.begin(), points.positions.end());
+        for (const Row& row : rows)
+          values.push_back(row.result.value);
+      }
+      std::string text;
+      for (const Row& row : rows) {
+        if (json)
+          text += (row.index == range.first ? "\n " : ",\n ") + json_row(row);
+        else if (csv)
+          text += csv_row(row);
+        else if (single)
+          text += integral_row(row);
+        else
+          text += text_row(row);
+      }
+      out.write(text);
+      done += rows.size();
+      if (!reference) progress.control().report(std::size_t(done), std::size_t(range.count));
+      first_block = false;
+    });
+    progress.finish();
 
-    if (!png.empty()) {
-      std::vector<basis::Rgb> values(rows.size());
-      for (std::size_t k = 0; k < rows.size(); ++k)
-        values[k] = rows[k].result.value;
-      const basis::CaptureSetView points = convolution.shaded().captures();
-      basis::write_image(png, basis::draw_points_from_above(points.positions, values, 768));
+    if (!png.empty())
+      basis::write_image(png, basis::draw_points_from_above(positions, values, 768));
+    if (json) {
+      nlohmann::ordered_json times;
+      if (timing) {
+        times["ns_per_convolution"] = timing->ns_per_convolution();
+        times["ns_per_lookup"] = timing->ns_per_lookup();
+      }
+      if (tree_timing) {
+        times["tree_ns_per_convolution"] = tree_timing->ns_per_convolution();
+        times["tree_ns_per_lookup"] = tree_timing->ns_per_lookup();
+      }
+      std::string tail = "\n]";
+      for (const auto& [key, value] : times.items())
+        tail += ",\n \"" + key + "\": " + value.dump();
+      out.write(tail + "\n}\n");
+    } else if (timing && csv) {
+      std::fprintf(stderr, "qtconvolve: %s\n", timing_text(*timing, tree_timing).c_str());
+    } else if (timing) {
+      out.write("# " + timing_text(*timing, tree_timing) + ", medians of repeated runs\n");
     }
-
-    if (json) return print_json(rows, timing, tree_timing);
-    if (csv) {
-      print_csv(rows, reference);
-      if (timing)
-        std::fprintf(stderr, "qtconvolve: %s\n", timing_text(*timing, tree_timing).c_str());
-      return;
-    }
-    if (rows.size() == 1 && !table) {
-      const auto& r = rows[0].result;
-      std::printf("integral %.7g %.7g %.7g  +- %.3g %.3g %.3g\n", r.value[0], r.value[1],
-                  r.value[2], r.bound[0], r.bound[1], r.bound[2]);
-    } else {
-      print_text(
-          rows,
-          std::string(table ? "reflected radiance at each capture" : "integral at each point") +
-              (shading.normal ? " (tilted normal)" : ""),
-          reference);
-    }
-    if (timing)
-      std::printf("# %s, medians of repeated runs\n", timing_text(*timing, tree_timing).c_str());
+    out.commit();
   });
 }

@@ -4,10 +4,58 @@
 #include "basis/core/hemisphere.h"
 #include "basis/core/version.h"
 #include "basis/format/qt_file.h"
+#include "basis/format/qt_manifest.h"
 #include "basis/format/qt_summary.h"
 #include "basis/io/image_file.h"
 #include "basis/io/picture.h"
 #include "cli.h"
+
+namespace {
+
+// The circles qtinfo draws on a capture: its directional lights, where they fall.
+std::vector<basis::Vec2> light_markers(const basis::CaptureSetView& captures, std::size_t k) {
+  std::vector<basis::Vec2> markers;
+  for (const basis::DirectionalLight& l : captures.lights_of(k))
+    markers.push_back(basis::cosine_hemisphere_to_square(l.direction));
+  return markers;
+}
+
+// A manifest: the summary over its shards, and a picture of one capture (--index counts over
+// the whole set).
+void describe_manifest(const std::string& input, bool json, const std::string& png, int index,
+                       int group, int size) {
+  using basis::cli::UsageError;
+  const basis::CaptureManifest manifest = basis::read_manifest(input);
+  {
+    basis::cli::ProgressBar progress("qtinfo", false);
+    const std::string text = json ? basis::summary_json(manifest, progress.control()) + "\n"
+                                  : basis::summary_text(manifest, progress.control());
+    progress.finish();
+    std::cout << text;
+  }
+  if (png.empty()) {
+    if (index >= 0) throw UsageError("--index chooses the capture drawn by --png");
+    return;
+  }
+  const std::uint64_t k = index < 0 ? 0 : std::uint64_t(index);
+  if (k >= manifest.total_points)
+    throw UsageError("--index " + std::to_string(index) + " but the set holds " +
+                     std::to_string(manifest.total_points) + " captures");
+  basis::CaptureSource source = basis::CaptureSource::open(input);
+  const std::size_t shard = source.shard_of(k);
+  const basis::QtFile& file = source.shard(shard);
+  const std::size_t local = k - source.shard_points(shard).first;
+  const basis::PackedTreeView tree = file.trees().tree(local);
+  if (group >= tree.shape().groups)
+    throw UsageError("--group " + std::to_string(group) + " but the trees hold " +
+                     std::to_string(tree.shape().groups) + " groups");
+  basis::write_image(
+      png,
+      basis::draw_tree(
+          tree, {.size = size, .group = group, .markers = light_markers(file.captures(), local)}));
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app(
@@ -20,7 +68,10 @@ int main(int argc, char** argv) {
   std::string input, png, entry;
   int index = -1, group = 0, size = 512;
   bool json = false;
-  app.add_option("file", input, "the .qt file (at most 2 GiB)")->required();
+  app.add_option("file", input,
+                 "the .qt file (at most 2 GiB), or a manifest of a capture set's shards (qtmerge "
+                 "--manifest): every shard is checked and the facts are added up over them")
+      ->required();
   app.add_flag("--json", json, "print the summary as JSON for scripts");
   app.add_option("--png", png, "draw a tree into this PNG file");
   app.add_option("--entry", entry,
@@ -35,6 +86,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", basis::kVersion);
 
   return basis::cli::run(app, argc, argv, [&] {
+    if (basis::is_manifest(input)) return describe_manifest(input, json, png, index, group, size);
     const basis::QtFile file = basis::QtFile::load(input);
     std::cout << (json ? basis::summary_json(file) + "\n" : basis::summary_text(file));
     if (png.empty()) {
@@ -73,8 +125,7 @@ int main(int argc, char** argv) {
     // A capture's directional lights are circled where they fall.
     std::vector<basis::Vec2> markers;
     if (file.kind() == basis::QtKind::capture_set)
-      for (const basis::DirectionalLight& l : file.captures().lights_of(index < 0 ? 0 : index))
-        markers.push_back(basis::cosine_hemisphere_to_square(l.direction));
+      markers = light_markers(file.captures(), std::size_t(index < 0 ? 0 : index));
     basis::write_image(png,
                        basis::draw_tree(tree, {.size = size, .group = group, .markers = markers}));
   });

@@ -34,22 +34,37 @@ std::vector<Grid> dense_grids(const CaptureSetView& captures, bool lights) {
 }
 
 FileConvolution::FileConvolution(const QtFile& a, const QtFile& b, const ShadingOptions& shading,
-                                 LightBrdf lights, Evaluation evaluation)
+                                 LightBrdf lights, Evaluation evaluation, const FileRanges& ranges)
     : a_(a), b_(b), shading_(shading) {
   table_ = a.kind() == QtKind::brdf_table ? &a : b.kind() == QtKind::brdf_table ? &b : nullptr;
   other_ = table_ == &a ? &b : &a;
   if (table_ && other_->kind() == QtKind::brdf_table)
     throw FileError(b.name() + ": two BRDF tables cannot be convolved; give a table and captures");
+  auto within = [](const QtFile& f, const std::optional<PointRange>& range, PointRange& used) {
+    const CaptureSetView all = as_captures(f);
+    used = range.value_or(PointRange{0, all.trees.size()});
+    if (f.kind() == QtKind::brdf_table) return all;
+    if (used.end() > all.trees.size())
+      throw std::invalid_argument(f.name() + ": captures " + std::to_string(used.first) + " .. " +
+                                  std::to_string(used.end()) + " of a set of " +
+                                  std::to_string(all.trees.size()));
+    if (f.kind() != QtKind::capture_set) return all;
+    return all.slice(used.first, used.count);
+  };
+  view_a_ = within(a, ranges.a, range_a_);
+  view_b_ = within(b, ranges.b, range_b_);
   if (a.kind() == QtKind::capture_set && b.kind() == QtKind::capture_set) {
-    const CaptureSetView ca = a.captures(), cb = b.captures();
+    const CaptureSetView& ca = view_a_;
+    const CaptureSetView& cb = view_b_;
     if (ca.size() != cb.size() ||
         !std::equal(ca.positions.begin(), ca.positions.end(), cb.positions.begin()) ||
         !std::equal(ca.normals.begin(), ca.normals.end(), cb.normals.begin()))
       throw FileError(b.name() + ": the two capture sets do not hold the same points");
   }
-  size_ = table_ ? other_->trees().size() : std::max(a.trees().size(), b.trees().size());
+  size_ = table_ ? shaded_captures().trees.size()
+                 : std::max(view_a_.trees.size(), view_b_.trees.size());
   shading_.light_brdf = nullptr;
-  if (table_ && other_->kind() == QtKind::capture_set && !other_->captures().lights.empty() &&
+  if (table_ && other_->kind() == QtKind::capture_set && !shaded_captures().lights.empty() &&
       lights == LightBrdf::spec) {
     try {
       light_spec_ = table_brdf(*table_);
@@ -63,17 +78,17 @@ FileConvolution::FileConvolution(const QtFile& a, const QtFile& b, const Shading
       throw std::invalid_argument("dense evaluation takes untilted lookups only (no --normal)");
     if (table_) {
       dense_table_ = dense_lookup(table_->brdf_table(), shading_.wo, shading_.interpolation);
-      dense_b_ = dense_grids(as_captures(*other_), false);
+      dense_b_ = dense_grids(shaded_captures(), false);
     } else {
-      dense_a_ = dense_grids(as_captures(a), true);
-      dense_b_ = dense_grids(as_captures(b), true);
+      dense_a_ = dense_grids(view_a_, true);
+      dense_b_ = dense_grids(view_b_, true);
     }
   }
 }
 
 Convolution FileConvolution::operator()(std::size_t k) const {
   if (dense_table_) {
-    const auto lights = other_->kind() == QtKind::capture_set ? other_->captures().lights_of(k)
+    const auto lights = other_->kind() == QtKind::capture_set ? shaded_captures().lights_of(k)
                                                               : std::span<const DirectionalLight>();
     return shade_dense(*dense_table_, dense_b_[k], lights, shading_.light_brdf);
   }
@@ -89,11 +104,11 @@ Convolution FileConvolution::operator()(std::size_t k) const {
   }
   if (table_) {
     if (other_->kind() == QtKind::capture_set)
-      return shade(table_->brdf_table(), other_->captures(), k, shading_);
-    return reflect(table_->brdf_table(), other_->tree(), shading_.wo,
+      return shade(table_->brdf_table(), shaded_captures(), k, shading_);
+    return reflect(table_->brdf_table(), shaded_captures().trees.tree(k), shading_.wo,
                    {shading_.convolution, shading_.interpolation});
   }
-  return capture_product(as_captures(a_), as_captures(b_), k);
+  return capture_product(view_a_, view_b_, k);
 }
 
 int FileConvolution::convolutions_per_result() const {
@@ -104,6 +119,50 @@ int FileConvolution::convolutions_per_result() const {
   for (const TableTap& tap : lookup_taps(table_->brdf_table(), shading_.wo, shading_.interpolation))
     taps += tap.reads_anything();
   return taps;
+}
+
+std::uint64_t result_count(const CaptureSource& a, const CaptureSource& b) {
+  if (a.kind() == QtKind::brdf_table) return b.size();
+  if (b.kind() == QtKind::brdf_table) return a.size();
+  if (a.kind() == QtKind::capture_set && b.kind() == QtKind::capture_set && a.size() > 1 &&
+      b.size() > 1 && a.size() != b.size())
+    throw FileError(b.path() + ": the two capture sets do not hold the same points (" +
+                    std::to_string(a.size()) + " and " + std::to_string(b.size()) + ")");
+  return std::max(a.size(), b.size());
+}
+
+void for_each_block(CaptureSource& a, CaptureSource& b, PointRange results, std::size_t max_block,
+                    const std::function<void(const ConvolutionBlock& block)>& on_block) {
+  const std::uint64_t total = result_count(a, b);
+  if (results.end() > total)
+    throw std::invalid_argument("results " + std::to_string(results.first) + " .. " +
+                                std::to_string(results.end()) + " of " + std::to_string(total));
+  // A capture set with a capture per result is walked point by point; a table, a single tree or
+  // a set of one capture stands for every result.
+  auto walked = [&](const CaptureSource& s) {
+    return s.kind() == QtKind::capture_set && s.size() == total && (total > 1 || s.is_manifest());
+  };
+  const bool walk_a = walked(a), walk_b = walked(b);
+  for (std::uint64_t p = results.first; p < results.end();) {
+    std::uint64_t end =
+        std::min<std::uint64_t>(results.end(), p + std::max<std::size_t>(1, max_block));
+    std::size_t shard_a = 0, shard_b = 0;
+    if (walk_a) {
+      shard_a = a.shard_of(p);
+      end = std::min(end, a.shard_points(shard_a).end());
+    }
+    if (walk_b) {
+      shard_b = b.shard_of(p);
+      end = std::min(end, b.shard_points(shard_b).end());
+    }
+    const QtFile& fa = a.shard(shard_a);
+    const QtFile& fb = b.shard(shard_b);
+    FileRanges ranges;
+    if (walk_a) ranges.a = PointRange{p - a.shard_points(shard_a).first, end - p};
+    if (walk_b) ranges.b = PointRange{p - b.shard_points(shard_b).first, end - p};
+    on_block({p, end - p, fa, fb, ranges});
+    p = end;
+  }
 }
 
 }  // namespace basis

@@ -55,7 +55,7 @@ std::string capture_parameters(const CaptureRecipe& r) {
       r.environment.empty()
           ? shortest(r.constant[0]) + "," + shortest(r.constant[1]) + "," + shortest(r.constant[2])
           : std::string();
-  const nlohmann::ordered_json j = {
+  nlohmann::ordered_json j = {
       {"res", r.options.resolution},
       {"spp", r.options.strata * r.options.strata},
       {"tolerance", r.projection.tolerance},
@@ -67,6 +67,22 @@ std::string capture_parameters(const CaptureRecipe& r) {
       {"env_constant", constant},
       {"scene", r.scene},
       {"lights", apart ? "apart" : "splatted"}};
+  if (r.shard)
+    j["shard"] = {{"index", r.shard->shard.index},
+                  {"count", r.shard->shard.count},
+                  {"total_points", r.shard->total_points}};
+  return j.dump();
+}
+
+std::string run_parameters(const std::string& parameters, const std::string& name) {
+  nlohmann::ordered_json j;
+  try {
+    j = nlohmann::ordered_json::parse(parameters);
+  } catch (const nlohmann::json::exception&) {
+    throw FileError(name + ": unreadable capture parameters in its provenance");
+  }
+  if (!j.is_object()) throw FileError(name + ": unreadable capture parameters in its provenance");
+  j.erase("shard");
   return j.dump();
 }
 
@@ -105,6 +121,23 @@ CaptureRecipe capture_recipe(const QtFile& captures) {
     }
     r.environment = j.value("env", std::string());
     r.scene = j.value("scene", std::string());
+    if (j.contains("shard")) {
+      const auto& s = j.at("shard");
+      CaptureShard shard{{s.at("index").get<int>(), s.at("count").get<int>()},
+                         s.at("total_points").get<std::uint64_t>()};
+      if (shard.shard.count < 1 || shard.shard.count > kMaxShards || shard.shard.index < 0 ||
+          shard.shard.index >= shard.shard.count)
+        throw FileError(captures.name() + ": its provenance names shard " +
+                        std::to_string(shard.shard.index) + "/" +
+                        std::to_string(shard.shard.count) + ", which no run has");
+      if (shard.points().count != captures.trees().size())
+        throw FileError(captures.name() + ": holds " + std::to_string(captures.trees().size()) +
+                        " captures where shard " + std::to_string(shard.shard.index) + "/" +
+                        std::to_string(shard.shard.count) + " of " +
+                        std::to_string(shard.total_points) + " points holds " +
+                        std::to_string(shard.points().count));
+      r.shard = shard;
+    }
   } catch (const nlohmann::json::exception&) {
     throw FileError(captures.name() + ": incomplete capture parameters in its provenance");
   }

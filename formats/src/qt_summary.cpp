@@ -1,5 +1,6 @@
 #include "basis/format/qt_summary.h"
 #include "basis/core/projection.h"
+#include "basis/format/qt_merge.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -103,17 +104,87 @@ std::string bytes_text(double bytes) {
   return buffer;
 }
 
-}  // namespace
-
-std::string summary_json(const QtFile& file) {
-  return summarise(file).dump(2);
+// The summary of a manifest's capture set: its shards' summaries added up, the run's provenance,
+// and the shards themselves.
+ordered_json summarise(const CaptureManifest& manifest, const TaskControl& control) {
+  ordered_json total;
+  ordered_json shards = ordered_json::array();
+  for (std::size_t k = 0; k < manifest.shards.size(); ++k) {
+    control.check();
+    const QtFile shard = open_manifest_shard(manifest, k);
+    const ordered_json j = summarise(shard);
+    const ManifestShard& entry = manifest.shards[k];
+    shards.push_back({{"file", entry.file},
+                      {"points", entry.points},
+                      {"bytes", entry.bytes},
+                      {"xxh128", entry.xxh128},
+                      {"checked", true}});
+    control.report(k + 1, manifest.shards.size());
+    if (k == 0) {
+      total = j;
+      total["file"] = manifest.path;
+      const Provenance run = run_provenance(shard);
+      total["provenance"]["parameters"] = run.parameters;
+      continue;
+    }
+    auto add = [](ordered_json& into, const ordered_json& from) {
+      into = into.get<double>() + from.get<double>();
+    };
+    total["bytes"] = total["bytes"].get<std::uint64_t>() + j["bytes"].get<std::uint64_t>();
+    total["trees"] = total["trees"].get<std::uint64_t>() + j["trees"].get<std::uint64_t>();
+    total["zero_copy"] = total["zero_copy"].get<bool>() && j["zero_copy"].get<bool>();
+    ordered_json& nodes = total["nodes"];
+    nodes["total"] = nodes["total"].get<std::uint64_t>() + j["nodes"]["total"].get<std::uint64_t>();
+    nodes["min"] =
+        std::min(nodes["min"].get<std::uint64_t>(), j["nodes"]["min"].get<std::uint64_t>());
+    nodes["max"] =
+        std::max(nodes["max"].get<std::uint64_t>(), j["nodes"]["max"].get<std::uint64_t>());
+    nodes["mean"] =
+        double(nodes["total"].get<std::uint64_t>()) / double(total["trees"].get<std::uint64_t>());
+    ordered_json& levels = nodes["per_level"];
+    for (std::size_t l = 0; l < j["nodes"]["per_level"].size(); ++l) {
+      if (l >= levels.size()) levels.push_back(0);
+      levels[l] = levels[l].get<long long>() + j["nodes"]["per_level"][l].get<long long>();
+    }
+    ordered_json& storage = total["storage"];
+    add(storage["tree_bytes"], j["storage"]["tree_bytes"]);
+    add(storage["dense_bytes"], j["storage"]["dense_bytes"]);
+    storage["compression"] =
+        storage["dense_bytes"].get<double>() / storage["tree_bytes"].get<double>();
+    ordered_json& c = total["captures"];
+    const ordered_json& d = j["captures"];
+    c["points"] = c["points"].get<std::uint64_t>() + d["points"].get<std::uint64_t>();
+    for (int i = 0; i < 3; ++i) {
+      c["bounds_min"][i] =
+          std::min(c["bounds_min"][i].get<double>(), d["bounds_min"][i].get<double>());
+      c["bounds_max"][i] =
+          std::max(c["bounds_max"][i].get<double>(), d["bounds_max"][i].get<double>());
+    }
+    c["lights"] = c["lights"].get<std::uint64_t>() + d["lights"].get<std::uint64_t>();
+    c["points_with_lights"] =
+        c["points_with_lights"].get<std::uint64_t>() + d["points_with_lights"].get<std::uint64_t>();
+  }
+  total["manifest"] = {
+      {"path", manifest.path}, {"total_points", manifest.total_points}, {"shards", shards}};
+  return total;
 }
 
-std::string summary_text(const QtFile& file) {
-  const ordered_json j = summarise(file);
+std::string render_text(const ordered_json& j) {
   std::ostringstream out;
-  out << "file         " << file.name() << " (" << bytes_text(double(file.byte_size()))
-      << ", format " << file.format_version() << ")\n";
+  out << "file         " << j["file"].get<std::string>() << " ("
+      << bytes_text(j["bytes"].get<double>());
+  if (j.contains("manifest")) out << " in " << j["manifest"]["shards"].size() << " shard files";
+  out << ", format " << j["format_version"].get<std::uint32_t>() << ")\n";
+  if (j.contains("manifest")) {
+    const auto& shards = j["manifest"]["shards"];
+    out << "shards       a manifest of " << shards.size()
+        << " files, each checked (size, checksum, shard of the run):";
+    for (std::size_t k = 0; k < shards.size() && k < 8; ++k)
+      out << (k ? ", " : " ") << shards[k]["file"].get<std::string>() << " ("
+          << shards[k]["points"].get<std::uint64_t>() << ")";
+    if (shards.size() > 8) out << ", ...";
+    out << "\n";
+  }
   out << "kind         " << j["kind"].get<std::string>();
   if (j.contains("brdf_table")) {
     const int m = j["brdf_table"]["wo_resolution"];
@@ -202,6 +273,24 @@ std::string summary_text(const QtFile& file) {
     }
   }
   return out.str();
+}
+
+}  // namespace
+
+std::string summary_json(const QtFile& file) {
+  return summarise(file).dump(2);
+}
+
+std::string summary_text(const QtFile& file) {
+  return render_text(summarise(file));
+}
+
+std::string summary_json(const CaptureManifest& manifest, const TaskControl& control) {
+  return summarise(manifest, control).dump(2);
+}
+
+std::string summary_text(const CaptureManifest& manifest, const TaskControl& control) {
+  return render_text(summarise(manifest, control));
 }
 
 }  // namespace basis

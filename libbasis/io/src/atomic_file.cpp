@@ -7,6 +7,8 @@
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 namespace basis {
@@ -61,36 +63,76 @@ void check_destination(const std::string& path) {
 
 }  // namespace
 
-void write_file_atomically(const std::string& path, std::span<const std::byte> data) {
-  check_destination(path);
-  if (destination_kind(path) == 3) {  // a device or pipe: no rename possible, write through
-    const int fd = ::open(path.c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC);
-    if (fd < 0) throw FileError(describe_errno(path, "open for writing"));
-    try {
-      write_all(fd, data, path);
-    } catch (...) {
-      ::close(fd);
-      throw;
-    }
-    if (::close(fd) != 0) throw FileError(describe_errno(path, "write"));
+AtomicFileWriter::AtomicFileWriter(std::string path) : path_(std::move(path)) {
+  check_destination(path_);
+  if (destination_kind(path_) == 3) {  // a device or pipe: no rename possible, write through
+    fd_ = ::open(path_.c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC);
+    if (fd_ < 0) throw FileError(describe_errno(path_, "open for writing"));
+    direct_ = true;
     return;
   }
-  auto [temp, fd] = make_temporary(path);
-  try {
-    write_all(fd, data, path);
-    if (::fsync(fd) != 0) throw FileError(describe_errno(path, "write"));
-    if (::close(fd) != 0) {
-      fd = -1;
-      throw FileError(describe_errno(path, "write"));
-    }
-    fd = -1;
-    ::chmod(temp.c_str(), 0644);  // mkstemp creates 0600; outputs are ordinary files
-    if (::rename(temp.c_str(), path.c_str()) != 0) throw FileError(describe_errno(path, "replace"));
-  } catch (...) {
-    if (fd >= 0) ::close(fd);
-    ::unlink(temp.c_str());
-    throw;
+  std::filesystem::path dir = std::filesystem::path(path_).parent_path();
+  if (dir.empty()) dir = ".";
+  fd_ = ::open(dir.c_str(), O_TMPFILE | O_WRONLY | O_CLOEXEC, 0644);
+  if (fd_ >= 0) {
+    unnamed_ = true;
+    ::fchmod(fd_, 0644);  // whatever the umask: outputs are ordinary files
+    return;
   }
+  // File systems without unnamed temporaries refuse with one of these; others are real errors.
+  if (errno != EOPNOTSUPP && errno != EISDIR && errno != EINVAL)
+    throw FileError(describe_errno(path_, "create a file in " + dir.string()));
+  std::tie(temp_path_, fd_) = make_temporary(path_);
+  ::fchmod(fd_, 0644);  // mkstemp creates 0600
+}
+
+AtomicFileWriter::~AtomicFileWriter() {
+  if (fd_ >= 0) ::close(fd_);
+  if (!temp_path_.empty()) ::unlink(temp_path_.c_str());
+}
+
+void AtomicFileWriter::write(std::span<const std::byte> data) {
+  if (fd_ < 0) throw FileError(path_ + ": written after it was committed");
+  write_all(fd_, data, path_);
+}
+
+void AtomicFileWriter::commit() {
+  if (fd_ < 0) throw FileError(path_ + ": committed twice");
+  if (direct_) {
+    const int fd = std::exchange(fd_, -1);
+    if (::close(fd) != 0) throw FileError(describe_errno(path_, "write"));
+    return;
+  }
+  if (::fsync(fd_) != 0) throw FileError(describe_errno(path_, "write"));
+  if (unnamed_) {
+    // Give the unnamed file a hidden name beside the target, then rename it over the target:
+    // a name that exists for the moment between the two calls only.
+    const std::filesystem::path target(path_);
+    std::filesystem::path dir = target.parent_path();
+    if (dir.empty()) dir = ".";
+    const std::string proc = "/proc/self/fd/" + std::to_string(fd_);
+    for (int attempt = 0; temp_path_.empty(); ++attempt) {
+      std::string base = ".";
+      base += target.filename().string();
+      base += ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(attempt);
+      const std::string name = (dir / base).string();
+      if (::linkat(AT_FDCWD, proc.c_str(), AT_FDCWD, name.c_str(), AT_SYMLINK_FOLLOW) == 0)
+        temp_path_ = name;
+      else if (errno != EEXIST || attempt > 100)
+        throw FileError(describe_errno(path_, "create a file in " + dir.string()));
+    }
+  }
+  const int fd = std::exchange(fd_, -1);
+  if (::close(fd) != 0) throw FileError(describe_errno(path_, "write"));
+  if (::rename(temp_path_.c_str(), path_.c_str()) != 0)
+    throw FileError(describe_errno(path_, "replace"));
+  temp_path_.clear();
+}
+
+void write_file_atomically(const std::string& path, std::span<const std::byte> data) {
+  AtomicFileWriter writer(path);
+  writer.write(data);
+  writer.commit();
 }
 
 void write_file_atomically(const std::string& path,

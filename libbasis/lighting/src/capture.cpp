@@ -270,7 +270,8 @@ CaptureSet capture_set(const Environment& environment, const RayScene* scene,
       const auto t0 = std::chrono::steady_clock::now();
       Capture c;
       try {
-        c = capture(environment, scene, points[i].position, frames[i], options.capture, i);
+        c = capture(environment, scene, points[i].position, frames[i], options.capture,
+                    options.first_index + i);
       } catch (const std::overflow_error& e) {
         throw FileError(environment.name() + ": radiance too large for captures: " + e.what());
       }
@@ -289,7 +290,7 @@ CaptureSet capture_set(const Environment& environment, const RayScene* scene,
       }
       trees[i] = pack(tree, options.bounds);
       const auto t2 = std::chrono::steady_clock::now();
-      if (options.on_grid) options.on_grid(i, c.texels, lights[i]);
+      if (options.on_grid) options.on_grid(options.first_index + i, c.texels, lights[i]);
       capture_ns += std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - t0).count();
       projection_ns += std::chrono::duration_cast<std::chrono::nanoseconds>(t2 - t1).count();
       rays += c.stats.rays;

@@ -207,13 +207,20 @@ TriangleMesh read_obj(const std::string& path) {
 
 std::vector<SurfacePoint> sample_surface(const TriangleMesh& mesh, std::size_t count,
                                          std::uint64_t seed) {
+  return sample_surface(mesh, PointRange{0, count}, seed);
+}
+
+std::vector<SurfacePoint> sample_surface(const TriangleMesh& mesh, PointRange range,
+                                         std::uint64_t seed) {
+  const std::size_t count = range.count;
   std::vector<double> cdf(mesh.triangles.size());
   double total = 0;
   for (std::size_t t = 0; t < cdf.size(); ++t)
     cdf[t] = total += mesh.area(t);
   std::vector<SurfacePoint> points(count);
   const std::uint64_t stream = splitmix64(seed);
-  for (std::size_t i = 0; i < count; ++i) {
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::uint64_t i = range.first + k;
     const double pick = unit_random(stream + 3 * i) * total;
     const std::size_t t = std::min(
         cdf.size() - 1, std::size_t(std::upper_bound(cdf.begin(), cdf.end(), pick) - cdf.begin()));
@@ -224,9 +231,9 @@ std::vector<SurfacePoint> sample_surface(const TriangleMesh& mesh, std::size_t c
       b = 1 - b;
     }
     const auto& f = mesh.triangles[t];
-    points[i].position =
+    points[k].position =
         vertex(mesh, f[0]) * (1 - a - b) + vertex(mesh, f[1]) * a + vertex(mesh, f[2]) * b;
-    points[i].normal = mesh.normal(t);
+    points[k].normal = mesh.normal(t);
   }
   return points;
 }

@@ -33,8 +33,20 @@ CaptureInputs open_capture_inputs(const CaptureRecipe& recipe) {
 std::vector<Rgb> reference_lookups(const QtFile& table_file, const QtFile& captures_file,
                                    const Vec3& wo, const Brdf* light_brdf,
                                    WoInterpolation interpolation, const TaskControl& control) {
+  return reference_lookups(table_file, captures_file,
+                           PointRange{0, captures_file.captures().size()}, wo, light_brdf,
+                           interpolation, control);
+}
+
+std::vector<Rgb> reference_lookups(const QtFile& table_file, const QtFile& captures_file,
+                                   PointRange points, const Vec3& wo, const Brdf* light_brdf,
+                                   WoInterpolation interpolation, const TaskControl& control) {
   const BrdfTableView table = table_file.brdf_table();
   const CaptureSetView captures = captures_file.captures();
+  if (points.end() > captures.size())
+    throw std::invalid_argument("captures " + std::to_string(points.first) + " .. " +
+                                std::to_string(points.end()) + " of a set of " +
+                                std::to_string(captures.size()));
   const BrdfSpec spec = table_brdf(table_file);
   const CaptureRecipe recipe = capture_recipe(captures_file);
   if (recipe.options.resolution != table.trees.shape().resolution)
@@ -58,12 +70,13 @@ std::vector<Rgb> reference_lookups(const QtFile& table_file, const QtFile& captu
   capture_options.compact_lights = captures.light_offsets.empty()
                                        ? CaptureOptions::CompactLights::splatted
                                        : CaptureOptions::CompactLights::apart;
-  std::vector<Rgb> out(captures.size());
+  std::vector<Rgb> out(points.count);
   std::atomic<std::size_t> done{0};
-  tbb::parallel_for(std::size_t(0), captures.size(), [&](std::size_t k) {
+  tbb::parallel_for(std::size_t(0), std::size_t(points.count), [&](std::size_t i) {
     control.check();
+    const std::size_t k = points.first + i;
     const Capture c = capture(inputs.environment, inputs.scene.get(), captures.positions[k],
-                              captures.frame(k), capture_options, k);
+                              captures.frame(k), capture_options, recipe.first_index() + k);
     Rgb sum{0, 0, 0};
     for (const Grid& entry : entries) {
       const Rgb d = dense_convolve_naive(entry, c.texels);
@@ -86,8 +99,8 @@ std::vector<Rgb> reference_lookups(const QtFile& table_file, const QtFile& captu
       for (int ch = 0; ch < 3; ++ch)
         sum[ch] += float(f[ch] * light.energy[ch] * wi.z());
     }
-    out[k] = sum;
-    control.report(++done, captures.size());
+    out[i] = sum;
+    control.report(++done, points.count);
   });
   return out;
 }

@@ -58,6 +58,10 @@ class QtFile {
   std::uint32_t format_version() const { return version_; }
   const std::string& name() const { return name_; }
   std::size_t byte_size() const { return size_; }
+  // The file's bytes as loaded and verified (for checksums of exactly what is used).
+  std::span<const std::byte> bytes() const {
+    return {static_cast<const std::byte*>(buffer()), size_};
+  }
 
   TreeSetView trees() const { return trees_; }
   ProjectionOptions projection() const { return projection_; }

@@ -8,6 +8,7 @@
 
 #include "basis/brdf/brdf_spec.h"
 #include "basis/brdf/brdf_table.h"
+#include "basis/core/shard.h"
 #include "basis/format/qt_file.h"
 #include "basis/lighting/capture.h"
 
@@ -25,7 +26,18 @@ BrdfTableOptions table_options(const BrdfSpec& spec);
 // wo_res, wi_res, tolerance, tolerance_floor, wo_derivatives, mode, tilt_derivatives, bounds.
 std::string table_parameters(const BrdfTableOptions& options);
 
-// What a capture set was made from: light, scene, capture and projection options.
+// Which part of a sharded run a capture set holds (capture2qt --shard): shard `shard` of a run
+// of `total_points` points, whose captures are the run's points shard_range(total_points, shard).
+struct CaptureShard {
+  Shard shard;
+  std::uint64_t total_points = 0;
+
+  PointRange points() const { return shard_range(total_points, shard); }
+  bool operator==(const CaptureShard&) const = default;
+};
+
+// What a capture set was made from: light, scene, capture and projection options, and for a
+// shard of a sharded run, which one.
 struct CaptureRecipe {
   std::string environment;  // map path, empty for a constant light
   Color constant{0, 0, 0};
@@ -33,11 +45,21 @@ struct CaptureRecipe {
   std::string scene;  // OBJ path, empty when nothing occludes
   CaptureOptions options;
   ProjectionOptions projection;
+  std::optional<CaptureShard> shard;
+
+  // The run's index of the set's first capture (its jitter counts from it): 0 unless a shard.
+  std::uint64_t first_index() const { return shard ? shard->points().first : 0; }
 };
 
 // The recipe as the parameters (JSON text) of a capture set's provenance, which
-// capture_recipe reads back.
+// capture_recipe reads back. A shard's are the whole run's with "shard": {"index", "count",
+// "total_points"} as the last field.
 std::string capture_parameters(const CaptureRecipe& recipe);
+
+// The parameters of the whole run that a shard's parameters (JSON text) belong to: the same text
+// without its "shard" field, exactly as capture_parameters writes it for one process. Throws
+// FileError naming `name` for text that is not a JSON object.
+std::string run_parameters(const std::string& parameters, const std::string& name);
 
 // The recipe of a capture set made by capture2qt (or the Python module's capture()); throws
 // FileError if the file does not say.

@@ -33,6 +33,11 @@ class TreeSetView {
     const std::size_t w = std::size_t(shape_.words_per_node());
     return {shape_, e.scales, words_.subspan(std::size_t(e.first_node) * w, e.node_count * w)};
   }
+  // Trees [first, first + count) of the set, over the same nodes (whose total_nodes() and
+  // bytes() still count all of them).
+  TreeSetView slice(std::size_t first, std::size_t count) const {
+    return {shape_, extents_.subspan(first, count), words_};
+  }
   std::span<const TreeExtent> extents() const { return extents_; }
   std::span<const std::uint32_t> words() const { return words_; }
   std::size_t total_nodes() const { return words_.size() / std::size_t(shape_.words_per_node()); }

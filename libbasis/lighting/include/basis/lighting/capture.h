@@ -103,6 +103,10 @@ struct CaptureSetOptions {
   // Capturing stops with std::length_error once the trees pass this size (a .qt file holds at
   // most 2 GiB), before memory runs out.
   std::size_t max_bytes = std::size_t(2000) << 20;
+  // The index of the first point in the whole run (a shard's first point): capture i's jitter
+  // depends on the seed and first_index + i, and on_grid is called with that index, so that the
+  // shards of a run capture exactly what one process would.
+  std::uint64_t first_index = 0;
 };
 
 // Time spent, summed over threads: tracing and filtering (capture) and building trees.
@@ -113,8 +117,8 @@ struct CaptureTimings {
 };
 
 // Captures every point in parallel and projects each capture into a tree. Deterministic for a
-// seed whatever the thread count; reports progress per point and stops (Cancelled) when asked.
-// Radiance that overflows float texels is a FileError naming the environment.
+// seed and first index whatever the thread count; reports progress per point and stops (Cancelled)
+// when asked. Radiance that overflows float texels is a FileError naming the environment.
 CaptureSet capture_set(const Environment& environment, const RayScene* scene,
                        std::span<const SurfacePoint> points, const CaptureSetOptions& options,
                        const TaskControl& control = {}, CaptureTimings* timings = nullptr);

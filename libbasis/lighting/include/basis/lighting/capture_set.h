@@ -42,6 +42,15 @@ struct CaptureSetView {
     if (light_offsets.empty()) return {};
     return lights.subspan(light_offsets[k], light_offsets[k + 1] - light_offsets[k]);
   }
+  // Captures [first, first + count) (within the set), with their trees and lights.
+  CaptureSetView slice(std::size_t first, std::size_t count) const {
+    return {positions.subspan(first, count),
+            normals.subspan(first, count),
+            tangents.subspan(first, count),
+            trees.slice(first, count),
+            lights,
+            light_offsets.empty() ? light_offsets : light_offsets.subspan(first, count + 1)};
+  }
 };
 
 struct CaptureSet {

@@ -9,6 +9,7 @@
 
 #include "basis/core/color.h"
 #include "basis/core/file_error.h"
+#include "basis/core/shard.h"
 #include "basis/core/vector.h"
 #include "basis/io/points_file.h"
 #include "basis/lighting/ray_scene.h"
@@ -54,6 +55,11 @@ TriangleMesh read_obj(const std::string& path);
 // `count` points uniformly distributed over the mesh's area, each with its triangle's normal
 // (the side its counter-clockwise winding faces). Deterministic for a seed.
 std::vector<SurfacePoint> sample_surface(const TriangleMesh& mesh, std::size_t count,
+                                         std::uint64_t seed);
+
+// Points [range.first, range.end()) of that sampling, for any number of points: point i depends
+// on the seed and i alone, so a shard of a run samples only its own points.
+std::vector<SurfacePoint> sample_surface(const TriangleMesh& mesh, PointRange range,
                                          std::uint64_t seed);
 
 }  // namespace basis

@@ -34,9 +34,16 @@ CaptureInputs open_capture_inputs(const CaptureRecipe& recipe);
 // The value of a lookup differs from this by at most its certified bound. Throws FileError when
 // the files do not say how they were made, std::invalid_argument for tables and captures of
 // different resolutions. Captures run in parallel; progress is reported per capture and the
-// work stops (Cancelled) when asked.
+// work stops (Cancelled) when asked. Captures are re-traced with the jitter of their index in
+// the whole run (a shard's first capture is not the run's first).
 std::vector<Rgb> reference_lookups(const QtFile& table, const QtFile& captures, const Vec3& wo,
                                    const Brdf* light_brdf,
+                                   WoInterpolation interpolation = WoInterpolation::hermite,
+                                   const TaskControl& control = {});
+
+// The same for captures [points.first, points.end()) of the file only.
+std::vector<Rgb> reference_lookups(const QtFile& table, const QtFile& captures, PointRange points,
+                                   const Vec3& wo, const Brdf* light_brdf,
                                    WoInterpolation interpolation = WoInterpolation::hermite,
                                    const TaskControl& control = {});
 

@@ -1,0 +1,34 @@
+// Checksums of bytes and files: XXH3-128 (xxHash, from Debian's libxxhash), as the 32 lowercase
+// hex digits xxh128sum prints, and checksum files beside the files they describe. A checksum
+// catches a file altered or damaged after it was written (any change, with odds of 2^-128 of
+// missing it); it is not a signature against deliberate forgery.
+#pragma once
+
+#include <cstddef>
+#include <span>
+#include <string>
+
+namespace basis {
+
+// The XXH3-128 of `bytes`, 32 lowercase hex digits (most significant first, as xxh128sum).
+std::string checksum_hex(std::span<const std::byte> bytes);
+
+// The XXH3-128 of a file's contents, read in pieces. Throws FileError naming the file when it
+// cannot be read.
+std::string file_checksum_hex(const std::string& path);
+
+// Where the checksum of `path` is kept: PATH.xxh128, one line "HEX  NAME" (NAME the file's name
+// without its folder, as `xxh128sum NAME` prints it, so that `xxh128sum -c` checks it there).
+std::string checksum_path(const std::string& path);
+
+// Writes the checksum file of `path` atomically, saying `hex`.
+void write_checksum_file(const std::string& path, const std::string& hex);
+
+// The checksum recorded beside `path`, or an empty string when there is none. Throws FileError
+// for a checksum file that is not one line "HEX  NAME" naming this file.
+std::string read_checksum_file(const std::string& path);
+
+// Whether `text` has the form of a checksum: 32 lowercase hex digits.
+bool is_checksum_text(const std::string& text);
+
+}  // namespace basis

@@ -1,0 +1,100 @@
+// qtmerge: the shard files of a sharded capture run (capture2qt --shard) joined into the one
+// capture set a single process writes, or listed in a manifest that the tools read in their place.
+#include <cstdio>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "basis/core/version.h"
+#include "basis/format/qt_manifest.h"
+#include "basis/format/qt_merge.h"
+#include "basis/format/qt_shard.h"
+#include "cli.h"
+
+int main(int argc, char** argv) {
+  CLI::App app(
+      "Join or list the shard files of a sharded capture run (capture2qt --shard I/N).\n"
+      "  qtmerge SHARD.qt... -o OUT.qt: one capture set, byte for byte the file one process "
+      "capturing every point writes; refused in one line when it would pass the 2 GiB one .qt "
+      "file holds.\n"
+      "  qtmerge SHARD.qt... --manifest OUT.qtm: a manifest, a small JSON file listing the shards "
+      "in order with their point counts, sizes and checksum, which qtconvolve and qtinfo read "
+      "wherever they read a capture set, one shard at a time.\n"
+      "  qtmerge MANIFEST.qtm -o OUT.qt: the shards a manifest lists, joined.\n"
+      "Shards may be given in any order (a shell glob): each records which shard it is. Every "
+      "shard is checked first: its checksum (the OUT.xxh128 capture2qt writes beside it, or the "
+      "manifest's), that it verifies as a .qt file, and that the shards are all of one run, "
+      "each once, none missing. A problem is one line naming the file, and nothing is written.",
+      "qtmerge");
+  std::vector<std::string> inputs;
+  std::string output, manifest_output;
+  bool json = false, quiet = false;
+  app.add_option("inputs", inputs, "shard files of one run (any order), or one manifest")
+      ->required();
+  app.add_option("-o,--output", output, "write the joined capture set here");
+  app.add_option("--manifest", manifest_output,
+                 "write a manifest listing the shards here (shard files named relative to its "
+                 "folder)");
+  app.add_flag("--json", json, "print what was written as JSON");
+  app.add_flag("-q,--quiet", quiet, "no progress bar or summary");
+  app.set_version_flag("--version", basis::kVersion);
+
+  return basis::cli::run(app, argc, argv, [&] {
+    using basis::cli::UsageError;
+    if (output.empty() && manifest_output.empty())
+      throw UsageError("say what to write: -o OUT.qt, --manifest OUT.qtm, or both");
+    basis::cli::ProgressBar progress("qtmerge", quiet);
+    const basis::TaskControl& control = progress.control();
+    std::vector<basis::QtFile> manifest_shards;
+    std::vector<basis::ShardFile> shard_files;
+    std::vector<const basis::QtFile*> sets;
+    std::uint64_t points = 0;
+    if (inputs.size() == 1 && basis::is_manifest(inputs[0])) {
+      if (!manifest_output.empty())
+        throw UsageError("--manifest lists shard files; " + inputs[0] + " is a manifest already");
+      const basis::CaptureManifest manifest = basis::read_manifest(inputs[0]);
+      for (std::size_t k = 0; k < manifest.shards.size(); ++k) {
+        control.check();
+        manifest_shards.push_back(basis::open_manifest_shard(manifest, k));
+        control.report(k + 1, manifest.shards.size());
+      }
+      for (const basis::QtFile& f : manifest_shards)
+        sets.push_back(&f);
+      points = manifest.total_points;
+    } else {
+      for (std::size_t k = 0; k < inputs.size(); ++k) {
+        control.check();
+        if (basis::is_manifest(inputs[k]))
+          throw UsageError(inputs[k] + ": a manifest; give shard files, or one manifest alone");
+        shard_files.push_back(basis::open_shard_file(inputs[k]));
+        control.report(k + 1, inputs.size());
+      }
+      basis::order_shards_of_one_run(shard_files);
+      for (const basis::ShardFile& s : shard_files)
+        sets.push_back(&s.file);
+      points = shard_files.front().recipe.shard->total_points;
+    }
+    progress.finish();
+
+    nlohmann::ordered_json report = {{"shards", sets.size()}, {"points", points}};
+    if (!manifest_output.empty()) {
+      const basis::CaptureManifest manifest = basis::make_manifest(shard_files, manifest_output);
+      basis::write_manifest(manifest);
+      report["manifest"] = manifest_output;
+      if (!quiet && !json)
+        std::printf("%s: a manifest of %zu shards, %llu points\n", manifest_output.c_str(),
+                    sets.size(), static_cast<unsigned long long>(points));
+    }
+    if (!output.empty()) {
+      const std::vector<std::byte> bytes =
+          basis::merge_capture_sets(sets, basis::run_provenance(*sets.front()), output);
+      control.check();
+      basis::write_qt(output, bytes);
+      report["output"] = output;
+      report["bytes"] = bytes.size();
+      if (!quiet && !json)
+        std::printf("%s: %zu shards joined, %llu captures, %.2f MiB\n", output.c_str(), sets.size(),
+                    static_cast<unsigned long long>(points), double(bytes.size()) / (1 << 20));
+    }
+    if (json && !quiet) std::cout << report.dump() << "\n";
+  });
+}
