@@ -7,7 +7,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-${BASIS_FUZZ_SECONDS:-30}}
-targets=(fuzz_qt_file fuzz_brdf_spec fuzz_measured fuzz_scene_files fuzz_render_scene)
+targets=(fuzz_qt_file fuzz_brdf_spec fuzz_measured fuzz_scene_files fuzz_render_scene fuzz_manifest)
 [ -x build-asan/bin/fuzz_scene_files ] || scripts/build-sanitized.sh
 cmake --build build-asan -j "$(nproc)" --target "${targets[@]}"
 

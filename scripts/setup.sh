@@ -15,6 +15,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   python3-matplotlib python3-dev python3-numpy python3-pytest pybind11-dev
   blender-data glmark2-data
+  slurmctld slurmd slurm-client munge
 )
 
 missing=()

@@ -42,6 +42,14 @@ void write_inputs(const TempDir& dir) {
                dir.path())
           .status,
       0);
+  ASSERT_EQ(run_tool("capture2qt",
+                     {"--env-constant", "1,1,1", "--at", "0,0,0", "--res", "8", "--shard", "0/1",
+                      "-o", "shard.0.qt", "-q"},
+                     dir.path())
+                .status,
+            0);
+  write_text(dir.file("truncated.qtm"), "{\"format\": \"libbasis capture-set manifest\",");
+  write_text(dir.file("foreign.qtm"), "{\"format\": \"something else\", \"version\": 1}");
   const std::string table = testing::slurp(dir.file("ok.qt"));
   write_text(dir.file("truncated.qt"), table.substr(0, table.size() / 3));
   write_text(dir.file("empty.qt"), "");
@@ -113,12 +121,16 @@ void check(const TempDir& dir, const std::string& tool, const Expectation& e) {
 TEST(BadInputMatrix, QtReaders) {
   TempDir dir;
   write_inputs(dir);
-  for (const std::string name :
-       {"missing.qt", "empty.qt", "folder", "truncated.qt", "foreign.qt", "future.qt"}) {
+  for (const std::string name : {"missing.qt", "empty.qt", "folder", "truncated.qt", "foreign.qt",
+                                 "future.qt", "truncated.qtm", "foreign.qtm"}) {
     check(dir, "qtinfo", {{name}, 1, name});
     check(dir, "qtconvolve", {{name, "cap.qt"}, 1, name});
     check(dir, "qtconvolve", {{"ok.qt", name}, 1, name});
+    check(dir, "qtmerge", {{name, "-o", "out.qt"}, 1, name});
   }
+  // Files that are not shards of a run.
+  check(dir, "qtmerge", {{"cap.qt", "-o", "out.qt"}, 1, "cap.qt"});
+  check(dir, "qtmerge", {{"ok.qt", "--manifest", "out.qtm"}, 1, "ok.qt"});
   check(dir, "qtinfo", {{"future.qt"}, 1, "format version 99 is newer"});
 }
 
@@ -183,7 +195,11 @@ TEST(BadInputMatrix, AbsurdSizesAndTolerances) {
          2,
          "--spp"});
   check(dir, "capture2qt",
-        {{"--env-constant", "1,1,1", "--sample", "100000000000", "-o", "out.qt"}, 2, "--sample"});
+        {{"--env-constant", "1,1,1", "--sample", "10000000000000", "-o", "out.qt"}, 2, "--sample"});
+  check(dir, "capture2qt",
+        {{"--env-constant", "1,1,1", "--at", "0,0,0", "--shard", "0/1000000000", "-o", "out.qt"},
+         2,
+         "--shard"});
   check(dir, "qtinfo", {{"ok.qt", "--png", "x.png", "--size", "1000000"}, 2, "--size"});
 }
 
@@ -195,6 +211,11 @@ TEST(BadInputMatrix, UnwritableOutputs) {
     check(dir, "brdf2qt", {{"ok.json", "--wo-res", "3", "--wi-res", "8", "-q", "-o", out}, 1, out});
     check(dir, "capture2qt",
           {{"--env-constant", "1,1,1", "--at", "0,0,0", "--res", "8", "-q", "-o", out}, 1, out});
+  }
+  for (const std::string out : {"no/such/folder/out.csv", "/proc/basis-test.csv", "/dev/full"}) {
+    check(dir, "qtconvolve", {{"ok.qt", "cap.qt", "--csv", "-o", out}, 1, out});
+    check(dir, "qtmerge", {{"shard.0.qt", "-o", out}, 1, out});
+    check(dir, "qtmerge", {{"shard.0.qt", "--manifest", out}, 1, out});
   }
   for (const std::string out : {"no/such/folder/x.png", "/proc/basis-test.png"}) {
     check(dir, "qtinfo", {{"ok.qt", "--png", out}, 1, out});
