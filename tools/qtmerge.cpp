@@ -1,14 +1,52 @@
 // qtmerge: the shard files of a sharded capture run (capture2qt --shard) joined into the one
 // capture set a single process writes, or listed in a manifest that the tools read in their place.
+#include <tbb/parallel_for.h>
 #include <cstdio>
 #include <iostream>
+
+#include <atomic>
+#include <functional>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "basis/core/version.h"
 #include "basis/format/qt_manifest.h"
 #include "basis/format/qt_merge.h"
 #include "basis/format/qt_shard.h"
 #include "cli.h"
+
+namespace {
+
+// Opens and checks `count` files in parallel (reading and checksumming them is what a merge
+// costs); the first failure in the files' order is the one reported, whatever the threads did.
+template <typename File>
+std::vector<File> open_in_parallel(std::size_t count, int threads,
+                                   const basis::TaskControl& control,
+                                   const std::function<File(std::size_t)>& open) {
+  std::vector<std::optional<File>> files(count);
+  std::vector<std::string> errors(count);
+  std::atomic<std::size_t> done{0};
+  basis::cli::thread_arena(threads)->execute([&] {
+    tbb::parallel_for(std::size_t(0), count, [&](std::size_t k) {
+      if (control.cancel && control.cancel->load()) return;
+      try {
+        files[k].emplace(open(k));
+      } catch (const std::exception& e) {
+        errors[k] = e.what();
+      }
+      control.report(++done, count);
+    });
+  });
+  control.check();
+  std::vector<File> opened;
+  for (std::size_t k = 0; k < count; ++k) {
+    if (!errors[k].empty()) throw basis::FileError(errors[k]);
+    opened.push_back(std::move(*files[k]));
+  }
+  return opened;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app(
@@ -28,12 +66,17 @@ int main(int argc, char** argv) {
   std::vector<std::string> inputs;
   std::string output, manifest_output;
   bool json = false, quiet = false;
+  int threads = 0;
   app.add_option("inputs", inputs, "shard files of one run (any order), or one manifest")
       ->required();
   app.add_option("-o,--output", output, "write the joined capture set here");
   app.add_option("--manifest", manifest_output,
                  "write a manifest listing the shards here (shard files named relative to its "
                  "folder)");
+  app.add_option("--threads", threads,
+                 "shards read and checked at once (default: all cores; reading is what a merge "
+                 "costs)")
+      ->check(CLI::Range(1, 1024));
   app.add_flag("--json", json, "print what was written as JSON");
   app.add_flag("-q,--quiet", quiet, "no progress bar or summary");
   app.set_version_flag("--version", basis::kVersion);
@@ -52,22 +95,19 @@ int main(int argc, char** argv) {
       if (!manifest_output.empty())
         throw UsageError("--manifest lists shard files; " + inputs[0] + " is a manifest already");
       const basis::CaptureManifest manifest = basis::read_manifest(inputs[0]);
-      for (std::size_t k = 0; k < manifest.shards.size(); ++k) {
-        control.check();
-        manifest_shards.push_back(basis::open_manifest_shard(manifest, k));
-        control.report(k + 1, manifest.shards.size());
-      }
+      manifest_shards = open_in_parallel<basis::QtFile>(
+          manifest.shards.size(), threads, control,
+          [&](std::size_t k) { return basis::open_manifest_shard(manifest, k); });
       for (const basis::QtFile& f : manifest_shards)
         sets.push_back(&f);
       points = manifest.total_points;
     } else {
-      for (std::size_t k = 0; k < inputs.size(); ++k) {
-        control.check();
-        if (basis::is_manifest(inputs[k]))
-          throw UsageError(inputs[k] + ": a manifest; give shard files, or one manifest alone");
-        shard_files.push_back(basis::open_shard_file(inputs[k]));
-        control.report(k + 1, inputs.size());
-      }
+      for (const std::string& input : inputs)
+        if (basis::is_manifest(input))
+          throw UsageError(input + ": a manifest; give shard files, or one manifest alone");
+      shard_files = open_in_parallel<basis::ShardFile>(
+          inputs.size(), threads, control,
+          [&](std::size_t k) { return basis::open_shard_file(inputs[k]); });
       basis::order_shards_of_one_run(shard_files);
       for (const basis::ShardFile& s : shard_files)
         sets.push_back(&s.file);
