@@ -218,16 +218,7 @@ int main(int argc, char** argv) {
     }
     basis::PointRange mine{0, total_points};
     if (!shard_text.empty()) {
-      basis::Shard shard;
-      try {
-        shard = basis::parse_shard(shard_text);
-      } catch (const std::invalid_argument& e) {
-        throw UsageError(std::string("--shard: ") + e.what());
-      }
-      if (std::uint64_t(shard.count) > total_points)
-        throw UsageError("--shard " + shard_text + ": " + std::to_string(shard.count) +
-                         " shards of " + std::to_string(total_points) +
-                         " points leave some empty; use at most " + std::to_string(total_points));
+      const basis::Shard shard = basis::cli::parse_shard_option(shard_text, total_points, "points");
       recipe.shard = basis::CaptureShard{shard, total_points};
       mine = recipe.shard->points();
       if (output.empty()) output = "captures." + std::to_string(shard.index) + ".qt";

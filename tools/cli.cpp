@@ -112,6 +112,20 @@ std::unique_ptr<tbb::task_arena> thread_arena(int threads) {
   return std::make_unique<tbb::task_arena>();
 }
 
+Shard parse_shard_option(const std::string& text, std::uint64_t total, const std::string& what) {
+  Shard shard;
+  try {
+    shard = parse_shard(text);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("--shard: ") + e.what());
+  }
+  if (std::uint64_t(shard.count) > total)
+    throw UsageError("--shard " + text + ": " + std::to_string(shard.count) + " shards of " +
+                     std::to_string(total) + " " + what + " leave some empty; use at most " +
+                     std::to_string(total));
+  return shard;
+}
+
 Vec3 parse_triple(const std::string& text, const std::string& option) {
   Vec3 v;
   std::istringstream in(text);

@@ -11,6 +11,7 @@
 #include <memory>
 #include <string>
 
+#include "basis/core/shard.h"
 #include "basis/core/task.h"
 #include "basis/core/vector.h"
 
@@ -56,6 +57,10 @@ class ProgressBar {
 
 // A task arena of `threads` workers (0: all cores) for the tools' --threads flag.
 std::unique_ptr<tbb::task_arena> thread_arena(int threads);
+
+// Parses --shard "I/N" for a run of `total` points (or results, as `what` names them): a shard
+// of the run that leaves none empty. Throws UsageError naming the option.
+Shard parse_shard_option(const std::string& text, std::uint64_t total, const std::string& what);
 
 // Parses "X,Y,Z" into three finite numbers; throws UsageError naming the option.
 Vec3 parse_triple(const std::string& text, const std::string& option);

@@ -268,17 +268,8 @@ int main(int argc, char** argv) {
     const std::uint64_t total = basis::result_count(a, b);
     basis::PointRange range{0, total};
     if (!shard_text.empty()) {
-      basis::Shard shard;
-      try {
-        shard = basis::parse_shard(shard_text);
-      } catch (const std::invalid_argument& e) {
-        throw UsageError(std::string("--shard: ") + e.what());
-      }
-      if (std::uint64_t(shard.count) > total)
-        throw UsageError("--shard " + shard_text + ": " + std::to_string(shard.count) +
-                         " shards of " + std::to_string(total) +
-                         " results leave some empty; use at most " + std::to_string(total));
-      range = basis::shard_range(total, shard);
+      range =
+          basis::shard_range(total, basis::cli::parse_shard_option(shard_text, total, "results"));
     }
     const bool manifests = a.is_manifest() || b.is_manifest();
     const std::size_t block = manifests ? kManifestBlock : std::size_t(range.count);
