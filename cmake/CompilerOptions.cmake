@@ -20,3 +20,10 @@ if(BASIS_SANITIZE OR BASIS_FUZZ)
                                                  -fno-sanitize-recover=all)
   target_link_options(basis_options INTERFACE -fsanitize=address,undefined)
 endif()
+# In the sanitizer builds the tools' own sources (argument parsing, reports) are compiled
+# without optimisation: they then compile in half the time, and the library they call, where
+# the work is, keeps its optimisation (tools/ adds these options to its targets).
+set(BASIS_THIN_TARGET_OPTIONS "")
+if(BASIS_SANITIZE OR BASIS_FUZZ)
+  set(BASIS_THIN_TARGET_OPTIONS -O0)
+endif()

@@ -135,6 +135,8 @@ int main(int argc, char** argv) {
       if (!env_path.empty() || !env_constant.empty() || !scene_path.empty() || !at.empty() ||
           !points_path.empty() || sample)
         throw UsageError("--image compresses an existing capture: no light, scene or points");
+      if (!shard_text.empty() || skip_existing)
+        throw UsageError("--image compresses one capture: no --shard or --skip-existing");
       const basis::Grid grid = basis::image_to_grid(basis::read_image(image_path), image_path);
       basis::Quadtree tree;
       try {

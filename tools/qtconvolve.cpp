@@ -22,6 +22,8 @@ using basis::cli::UsageError;
 // Blocks of at most this many results are computed at a time when an input is a manifest, so
 // that memory stays bounded (a block's dense grids are 192 KiB per 128^2 RGB capture).
 constexpr std::size_t kManifestBlock = 4096;
+// --time stops timing after the block that reaches this many results.
+constexpr std::uint64_t kMostTimedResults = 65536;
 
 struct Row {
   std::uint64_t index = 0;
@@ -210,7 +212,9 @@ int main(int argc, char** argv) {
                  "reported bound stays within about this fraction of the value (default 0: to "
                  "the leaves)")
       ->check(CLI::Range(0.0, 1.0));
-  app.add_flag("--time", time, "report the median time per convolution over repeated runs");
+  app.add_flag("--time", time,
+               "report the median time per convolution over repeated runs (of the first 65,536 "
+               "results at most)");
   app.add_flag("--dense", dense,
                "compute the same results with vectorised dense products of every tree's "
                "full-resolution reconstruction (built before timing; untilted lookups); with "
@@ -222,7 +226,9 @@ int main(int argc, char** argv) {
                  "compute only shard I of N of the results (I from 0, e.g. "
                  "$SLURM_ARRAY_TASK_ID/8): results [floor(I P / N), floor((I + 1) P / N)) of P, "
                  "with their indices in the whole set; the header (CSV, text) comes with shard 0 "
-                 "only, so that the shards' outputs concatenated in order are the whole output");
+                 "only, so that the shards' outputs concatenated in order are the whole output "
+                 "(hence not with --json; --time with --csv only); --png draws the shard's "
+                 "points");
   app.add_option("-o,--output", output,
                  "write the results to this file, put in place only once complete, instead of "
                  "printing them");
@@ -264,6 +270,10 @@ int main(int argc, char** argv) {
     if (!png.empty() && !shades_captures && !two_sets)
       throw UsageError("--png draws capture points: give captures");
 
+    if (!shard_text.empty() && json)
+      throw UsageError("--shard writes results that concatenate in order: CSV or text, not --json");
+    if (!shard_text.empty() && time && !csv)
+      throw UsageError("--shard with --time needs --csv (the timing then goes to stderr)");
     // The results this process computes: all, or its shard's.
     const std::uint64_t total = basis::result_count(a, b);
     basis::PointRange range{0, total};
@@ -276,18 +286,21 @@ int main(int argc, char** argv) {
 
     Output out(output);
     const bool single = total == 1 && !has_table && !json && !csv;
-    std::string title =
-        std::string(has_table ? "reflected radiance at each capture" : "integral at each point") +
-        (shading.normal ? " (tilted normal)" : "");
-    if (json) {
-      out.write("{\"results\": [");
-    } else if (range.first == 0 && csv) {  // shards after the first continue the first's table
-      out.write(std::string("index,r,g,b,bound_r,bound_g,bound_b") +
-                (reference ? ",reference_r,reference_g,reference_b" : "") + "\n");
-    } else if (range.first == 0 && !single) {
-      out.write("# " + title + ", RGB value +- certified bound" +
-                (reference ? "; full-resolution reference; difference" : "") + "\n");
-    }
+    // Written once the first block has checked its inputs, so that an error prints nothing.
+    const auto write_header = [&] {
+      const std::string title =
+          std::string(has_table ? "reflected radiance at each capture" : "integral at each point") +
+          (shading.normal ? " (tilted normal)" : "");
+      if (json) {
+        out.write("{\"results\": [");
+      } else if (range.first == 0 && csv) {  // shards after the first continue the first's
+        out.write(std::string("index,r,g,b,bound_r,bound_g,bound_b") +
+                  (reference ? ",reference_r,reference_g,reference_b" : "") + "\n");
+      } else if (range.first == 0 && !single) {
+        out.write("# " + title + ", RGB value +- certified bound" +
+                  (reference ? "; full-resolution reference; difference" : "") + "\n");
+      }
+    };
 
     std::optional<Timing> timing, tree_timing;
     if (time) timing.emplace();
@@ -308,17 +321,22 @@ int main(int argc, char** argv) {
         dense_products.emplace(blk.a, blk.b, shading, light_brdf, basis::Evaluation::dense,
                                blk.ranges);
       const basis::FileConvolution& convolution = dense ? *dense_products : trees;
-      // Always said, -q or not: the lights lose accuracy (see --lights).
-      if (first_block && !convolution.warning().empty())
-        std::fprintf(stderr, "qtconvolve: warning: %s\n", convolution.warning().c_str());
+      if (first_block) {
+        write_header();
+        // Always said, -q or not: the lights lose accuracy (see --lights).
+        if (!convolution.warning().empty())
+          std::fprintf(stderr, "qtconvolve: warning: %s\n", convolution.warning().c_str());
+      }
 
       std::vector<Row> rows(convolution.size());
       for (std::size_t k = 0; k < rows.size(); ++k) {
         rows[k].index = blk.first + k;
         rows[k].result = convolution(k);
       }
-      if (timing) time_results(convolution, *timing);
-      if (tree_timing) time_results(trees, *tree_timing);
+      // Each block is timed for at least 0.1 s: a long run is timed on its first blocks.
+      const bool timed = timing && timing->results < kMostTimedResults;
+      if (timed) time_results(convolution, *timing);
+      if (timed && tree_timing) time_results(trees, *tree_timing);
       if (reference) {
         basis::TaskControl control = progress.control();
         control.progress = [&](std::size_t d, std::size_t) {
@@ -358,6 +376,7 @@ int main(int argc, char** argv) {
       first_block = false;
     });
     progress.finish();
+    if (first_block) write_header();  // a shard without results
 
     if (!png.empty())
       basis::write_image(png, basis::draw_points_from_above(positions, values, 768));

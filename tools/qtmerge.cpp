@@ -115,7 +115,21 @@ int main(int argc, char** argv) {
     }
     progress.finish();
 
+    // The join first: a refusal (past 2 GiB) leaves neither output written.
+    std::vector<std::byte> bytes;
+    if (!output.empty()) {
+      bytes = basis::merge_capture_sets(sets, basis::run_provenance(*sets.front()), output);
+      control.check();
+    }
     nlohmann::ordered_json report = {{"shards", sets.size()}, {"points", points}};
+    if (!output.empty()) {
+      basis::write_qt(output, bytes);
+      report["output"] = output;
+      report["bytes"] = bytes.size();
+      if (!quiet && !json)
+        std::printf("%s: %zu shards joined, %llu captures, %.2f MiB\n", output.c_str(), sets.size(),
+                    static_cast<unsigned long long>(points), double(bytes.size()) / (1 << 20));
+    }
     if (!manifest_output.empty()) {
       const basis::CaptureManifest manifest = basis::make_manifest(shard_files, manifest_output);
       basis::write_manifest(manifest);
@@ -123,17 +137,6 @@ int main(int argc, char** argv) {
       if (!quiet && !json)
         std::printf("%s: a manifest of %zu shards, %llu points\n", manifest_output.c_str(),
                     sets.size(), static_cast<unsigned long long>(points));
-    }
-    if (!output.empty()) {
-      const std::vector<std::byte> bytes =
-          basis::merge_capture_sets(sets, basis::run_provenance(*sets.front()), output);
-      control.check();
-      basis::write_qt(output, bytes);
-      report["output"] = output;
-      report["bytes"] = bytes.size();
-      if (!quiet && !json)
-        std::printf("%s: %zu shards joined, %llu captures, %.2f MiB\n", output.c_str(), sets.size(),
-                    static_cast<unsigned long long>(points), double(bytes.size()) / (1 << 20));
     }
     if (json && !quiet) std::cout << report.dump() << "\n";
   });

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <filesystem>
 
+#include "basis/core/version.h"
 #include "basis/io/checksum.h"
 
 namespace basis {
@@ -77,6 +78,8 @@ std::optional<std::string> why_shard_must_be_made(const std::string& path,
       return path + ": made with other parameters (" + p.parameters + ")";
     if (p.sources != sources) return path + ": made from other files";
     if (shard.file.trees().shape().bounds != bounds) return path + ": holds other --bounds";
+    // A merge refuses shards of different versions: an upgrade re-makes every shard.
+    if (p.tool_version != kVersion) return path + ": made by version " + p.tool_version;
   } catch (const FileError& e) {
     return e.what();
   }

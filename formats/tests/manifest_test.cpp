@@ -4,6 +4,7 @@
 
 #include <fstream>
 
+#include "basis/core/version.h"
 #include "basis/format/qt_manifest.h"
 #include "basis/format/qt_merge.h"
 #include "basis/format/qt_recipe.h"
@@ -34,8 +35,9 @@ CaptureRecipe run_recipe() {
   return r;
 }
 
-// Shard `s` of a run over line_points(total), encoded as capture2qt encodes it.
-std::vector<std::byte> encode_shard(std::uint64_t total, const Shard& s) {
+// Shard `s` of a run over line_points(total), encoded as capture2qt of `version` encodes it.
+std::vector<std::byte> encode_shard(std::uint64_t total, const Shard& s,
+                                    const std::string& version = "test") {
   CaptureRecipe recipe = run_recipe();
   recipe.shard = CaptureShard{s, total};
   const PointRange mine = recipe.shard->points();
@@ -47,7 +49,7 @@ std::vector<std::byte> encode_shard(std::uint64_t total, const Shard& s) {
       Environment::constant(recipe.constant), nullptr,
       std::span(all).subspan(std::size_t(mine.first), std::size_t(mine.count)), options);
   return encode_capture_set(set.view(), recipe.projection,
-                            {"capture2qt", "test", capture_parameters(recipe), {}});
+                            {"capture2qt", version, capture_parameters(recipe), {}});
 }
 
 // Writes shards 0 .. count - 1 of a run of `total` points as DIR/s.K.qt with their checksums.
@@ -127,6 +129,22 @@ TEST(ShardFiles, AlteredOrUncheckedFilesAreRefused) {
                    encode_capture_set(set.view(), r.projection,
                                       {"capture2qt", "test", capture_parameters(r), {}}));
   expect_file_error([&] { open_shard_file(dir.file("whole.qt")); }, "not a shard");
+}
+
+TEST(ShardFiles, ReRunsKeepOnlyShardsOfTheSameRunAndVersion) {
+  TempDir dir;
+  CaptureRecipe recipe = run_recipe();
+  recipe.shard = CaptureShard{{0, 2}, 10};
+  const std::string path = dir.file("s.0.qt");
+  EXPECT_EQ(why_shard_must_be_made(path, recipe, {}, BoundKind::l2), path + ": missing");
+  write_shard_file(path, encode_shard(10, {0, 2}, kVersion));
+  EXPECT_EQ(why_shard_must_be_made(path, recipe, {}, BoundKind::l2), std::nullopt);
+  EXPECT_NE(why_shard_must_be_made(path, recipe, {}, BoundKind::linf), std::nullopt);
+  EXPECT_NE(why_shard_must_be_made(path, recipe, {"sky.exr"}, BoundKind::l2), std::nullopt);
+  // Made by another version of the tools: a merge would refuse it beside new shards.
+  write_shard_file(path, encode_shard(10, {0, 2}, "0.0.1"));
+  EXPECT_EQ(why_shard_must_be_made(path, recipe, {}, BoundKind::l2),
+            path + ": made by version 0.0.1");
 }
 
 TEST(Manifests, ListShardsAndCheckThemAsTheyOpen) {

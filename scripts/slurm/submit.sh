@@ -48,7 +48,19 @@ shift 3
 lookup_shards=${lookup_shards:-$shards}
 mkdir -p "$out/logs"
 common+=(--parsable --kill-on-invalid-dep=yes)
-export BASIS_BIN=${BASIS_BIN:-$(dirname "$(command -v capture2qt)")}
+if [ -z "${BASIS_BIN:-}" ]; then
+  tool=$(command -v capture2qt || true)
+  if [ -z "$tool" ]; then
+    echo "submit.sh: capture2qt is not on PATH: set BASIS_BIN to the folder of the tools" >&2
+    exit 2
+  fi
+  BASIS_BIN=$(dirname "$tool")
+fi
+if [ ! -x "$BASIS_BIN/capture2qt" ]; then
+  echo "submit.sh: $BASIS_BIN/capture2qt: no such tool (BASIS_BIN)" >&2
+  exit 2
+fi
+export BASIS_BIN
 
 submit() {  # submit NAME LOG sbatch-arguments...: prints the job ID
   local name=$1 log=$2
@@ -57,7 +69,8 @@ submit() {  # submit NAME LOG sbatch-arguments...: prints the job ID
     echo "sbatch ${common[*]} --output=$out/logs/$log $*" >&2
     echo "$name"
   else
-    sbatch "${common[@]}" --output="$out/logs/$log" "$@"
+    # --parsable prints "ID" or "ID;CLUSTER": dependencies take the ID.
+    sbatch "${common[@]}" --output="$out/logs/$log" "$@" | cut -d';' -f1
   fi
 }
 
@@ -71,7 +84,7 @@ if [ -n "$table" ]; then
   [ -n "$wo" ] && lookup_args=(--wo "$wo")
   lookup=$(submit lookup "%x-%A_%a.log" --array="0-$((lookup_shards - 1))$throttle" \
     --dependency=afterok:"$merge" "$here/lookup.sbatch" "$out" "$lookup_shards" "$table" \
-    "${lookup_args[@]}")
+    ${lookup_args[@]+"${lookup_args[@]}"})
   gather=$(submit gather "%x-%j.log" --dependency=afterok:"$lookup" "$here/gather.sbatch" "$out" \
     "$lookup_shards")
   echo "$lookup"

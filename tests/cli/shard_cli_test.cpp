@@ -155,6 +155,22 @@ TEST(ShardCli, LookupShardsConcatenateToTheOutputOfOneRun) {
       EXPECT_EQ(joined, single) << captures;
     }
   }
+  // Lookup shards concatenate; a JSON document or text with a timing line would not.
+  expect_refusal(
+      run_tool("qtconvolve", {"phong.qt", "set.qtm", "--shard", "0/2", "--json"}, dir.path()), 2,
+      "--json");
+  expect_refusal(
+      run_tool("qtconvolve", {"phong.qt", "set.qtm", "--shard", "0/2", "--time"}, dir.path()), 2,
+      "--csv");
+  // Inputs that do not go together print nothing, not even the header.
+  for (const bool csv : {false, true}) {
+    const auto r = run_tool("qtconvolve",
+                            with({"phong.qt", "phong.qt"}, csv ? std::vector<std::string>{"--csv"}
+                                                               : std::vector<std::string>{}),
+                            dir.path());
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_EQ(r.out, "");
+  }
   // Products of captures, a manifest on either side.
   const std::string products = tool_output(dir, "qtconvolve", {"single.qt", "single.qt", "--csv"});
   EXPECT_EQ(tool_output(dir, "qtconvolve", {"single.qt", "set.qtm", "--csv"}), products);
@@ -214,6 +230,13 @@ TEST(ShardCli, ManifestShardsThatChangedAreNamedInOneLine) {
   expect_refusal(run_tool("qtmerge", {"s.0.qt", "s.2.qt", "-o", "m.qt"}, dir.path()), 1,
                  "shard 1/3 is missing");
   EXPECT_FALSE(std::filesystem::exists(dir.file("m.qt")));
+  // A join that cannot be written leaves no manifest either.
+  EXPECT_NE(run_tool("qtmerge",
+                     {"s.0.qt", "s.1.qt", "s.2.qt", "--manifest", "new.qtm", "-o", "no/such/m.qt"},
+                     dir.path())
+                .status,
+            0);
+  EXPECT_FALSE(std::filesystem::exists(dir.file("new.qtm")));
 }
 
 TEST(ShardCli, ReRunsRedoOnlyTheShardsThatAreMissingOrAltered) {
@@ -296,6 +319,8 @@ TEST(ShardCli, ShardsNoRunHasAreUsageErrors) {
   expect_refusal(capture(dir, with(sample(5), {"--skip-existing"})), 2, "--skip-existing");
   expect_refusal(capture(dir, sample(20000000)), 2, "--shard");
   expect_refusal(run_tool("qtmerge", {"x.qt"}, dir.path()), 2, "-o OUT.qt");
+  expect_refusal(run_tool("capture2qt", {"--image", "c.exr", "--shard", "0/2"}, dir.path()), 2,
+                 "--image");
   EXPECT_TRUE(dir.entries().empty());
 }
 

@@ -21,6 +21,7 @@ for exe in /usr/sbin/munged /usr/sbin/slurmctld /usr/sbin/slurmd sbatch squeue s
 done
 id munge >/dev/null 2>&1 || fail "no munge user (Debian's munge package creates it)"
 
+# Under /tmp, not $TMPDIR: the daemons' socket paths must stay short (108 bytes at most).
 work=$(mktemp -d /tmp/basis-slurm.XXXXXX)
 chmod 755 "$work"
 stop() {  # stop NAME PIDFILE: the daemon this test started, and only it

@@ -34,9 +34,8 @@ ShardFile open_shard_file(const std::string& path);
 
 // What a re-run of shard `recipe.shard` expects to find at `path` to skip it: a shard file
 // that opens (open_shard_file) with exactly these parameters (capture_parameters(recipe)),
-// sources and bound kind. Returns why it cannot be skipped ("PATH: problem"), or nothing when it
-// can. Never throws
-// for a bad or missing file.
+// sources and bound kind, made by this version of the tools. Returns why it cannot be skipped
+// ("PATH: problem"), or nothing when it can. Never throws for a bad or missing file.
 std::optional<std::string> why_shard_must_be_made(const std::string& path,
                                                   const CaptureRecipe& recipe,
                                                   const std::vector<std::string>& sources,
