@@ -3,10 +3,10 @@
 # runs each for a bounded time on its seed corpus (tests/fuzz/corpus, plus small .qt files made
 # by ./build's tools and an RGL file from ../shared/data/rgl-bsdf when those exist). Fails on
 # any crash, leak or sanitizer report.
-# Usage: scripts/fuzz.sh [seconds per target, default BASIS_FUZZ_SECONDS or 30]
+# Usage: scripts/fuzz.sh [seconds per target, default BASIS_FUZZ_SECONDS or 15]
 set -euo pipefail
 cd "$(dirname "$0")/.."
-seconds=${1:-${BASIS_FUZZ_SECONDS:-30}}
+seconds=${1:-${BASIS_FUZZ_SECONDS:-15}}
 targets=(fuzz_qt_file fuzz_brdf_spec fuzz_measured fuzz_scene_files fuzz_render_scene fuzz_manifest)
 [ -x build-asan/bin/fuzz_scene_files ] || scripts/build-sanitized.sh
 cmake --build build-asan -j "$(nproc)" --target "${targets[@]}"

@@ -35,7 +35,7 @@ std::vector<Grid> dense_grids(const CaptureSetView& captures, bool lights) {
 
 FileConvolution::FileConvolution(const QtFile& a, const QtFile& b, const ShadingOptions& shading,
                                  LightBrdf lights, Evaluation evaluation, const FileRanges& ranges)
-    : a_(a), b_(b), shading_(shading) {
+    : a_(a), shading_(shading) {
   table_ = a.kind() == QtKind::brdf_table ? &a : b.kind() == QtKind::brdf_table ? &b : nullptr;
   other_ = table_ == &a ? &b : &a;
   if (table_ && other_->kind() == QtKind::brdf_table)

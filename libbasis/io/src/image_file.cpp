@@ -5,6 +5,7 @@
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <memory>
 
 namespace basis {
@@ -22,6 +23,10 @@ std::string one_line(std::string message) {
 }  // namespace
 
 Image read_image(const std::string& path) {
+  // Said here: some of OpenImageIO's readers (HEIF) spin on a directory instead of failing.
+  std::error_code error;
+  if (std::filesystem::is_directory(path, error))
+    throw FileError(path + ": is a directory, not an image");
   auto input = OIIO::ImageInput::open(path);
   if (!input) throw FileError(path + ": " + one_line(OIIO::geterror()));
   const OIIO::ImageSpec& spec = input->spec();

@@ -77,7 +77,6 @@ class FileConvolution {
 
  private:
   const QtFile& a_;
-  const QtFile& b_;
   const QtFile* table_ = nullptr;
   const QtFile* other_ = nullptr;
   ShadingOptions shading_;
