@@ -115,14 +115,12 @@ int main(int argc, char** argv) {
     }
     progress.finish();
 
-    // The join first: a refusal (past 2 GiB) leaves neither output written.
-    std::vector<std::byte> bytes;
-    if (!output.empty()) {
-      bytes = basis::merge_capture_sets(sets, basis::run_provenance(*sets.front()), output);
-      control.check();
-    }
+    // The join first: a refusal (past 2 GiB) or a failed write leaves no manifest either.
     nlohmann::ordered_json report = {{"shards", sets.size()}, {"points", points}};
     if (!output.empty()) {
+      const std::vector<std::byte> bytes =
+          basis::merge_capture_sets(sets, basis::run_provenance(*sets.front()), output);
+      control.check();
       basis::write_qt(output, bytes);
       report["output"] = output;
       report["bytes"] = bytes.size();
