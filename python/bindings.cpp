@@ -216,20 +216,35 @@ PYBIND11_MODULE(basis, m) {
                              [](const Tree& t) { return t.view.scales().value_scale; })
       .def_property_readonly("bound_scale",
                              [](const Tree& t) { return t.view.scales().bound_scale; })
+      .def_property_readonly("texel_start", [](const Tree& t) { return t.view.texel_start(); })
       .def_property_readonly(
           "words",
           [](py::object self) {
             const Tree& t = self.cast<const Tree&>();
-            const auto w = t.view.words();
             const py::ssize_t per_node = t.view.shape().words_per_node();
-            // The nodes where they lie (a view into the file or tree), read-only.
-            py::array_t<std::uint32_t> a({py::ssize_t(w.size()) / per_node, per_node},
-                                         {per_node * 4, py::ssize_t(4)}, w.data(), self);
+            // The full nodes where they lie (a view into the file or tree), read-only.
+            py::array_t<std::uint32_t> a({py::ssize_t(t.view.texel_start()), per_node},
+                                         {per_node * 4, py::ssize_t(4)}, t.view.words().data(),
+                                         self);
             py::detail::array_proxy(a.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
             return a;
           },
-          "The nodes without a copy: an array of node_count x words_per_node 32-bit words (link, "
-          "half values, bound codes; README, the .qt file format).")
+          "The full nodes without a copy: an array of texel_start x words_per_node 32-bit words "
+          "(link, half values, bound codes; README, the .qt file format). Every node but the "
+          "texel nodes of trees with exact texels (texel_words).")
+      .def_property_readonly(
+          "texel_words",
+          [](py::object self) {
+            const Tree& t = self.cast<const Tree&>();
+            const py::ssize_t per_node = t.view.shape().words_per_texel_node();
+            const py::ssize_t count = t.view.node_count() - t.view.texel_start();
+            py::array_t<std::uint32_t> a({count, per_node}, {per_node * 4, py::ssize_t(4)},
+                                         count ? t.view.node(t.view.texel_start()) : nullptr, self);
+            py::detail::array_proxy(a.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
+            return a;
+          },
+          "The texel nodes of a tree with exact texels (a capture's), nodes texel_start on, "
+          "without a copy: their half values alone (empty for other trees).")
       .def(
           "reconstruct", [](const Tree& t) { return grid_array(reconstruct(t.view)); },
           "The piecewise-constant function at full resolution: float32 (groups, channels, N, N).")

@@ -150,7 +150,7 @@ int main(int argc, char** argv) {
                                                  {"mode", absolute ? "absolute" : "relative"}};
       basis::write_qt(
           output,
-          basis::encode_tree(basis::pack(tree, bound_kind).view(), recipe.projection,
+          basis::encode_tree(basis::pack_exact_texels(tree, bound_kind).view(), recipe.projection,
                              {"capture2qt", basis::kVersion, parameters.dump(), {image_path}}));
       if (!quiet)
         std::printf("%s: one capture of %d x %d texels, %d nodes\n", output.c_str(),

@@ -20,8 +20,8 @@ namespace basis {
 namespace fb = basis::format;
 
 static_assert(sizeof(Quad) == sizeof(fb::Quad) && alignof(Quad) == alignof(fb::Quad));
-static_assert(sizeof(TreeExtent) == sizeof(fb::PackedExtent) &&
-              alignof(TreeExtent) == alignof(fb::PackedExtent));
+static_assert(sizeof(TreeExtent) == sizeof(fb::NodeExtent) &&
+              alignof(TreeExtent) == alignof(fb::NodeExtent));
 static_assert(std::endian::native == std::endian::little,
               "packed nodes hold halves and bytes inside little-endian words");
 static_assert(sizeof(Vec3) == sizeof(fb::Vec3) && alignof(Vec3) == alignof(fb::Vec3));
@@ -342,7 +342,7 @@ TreeSetView QtFile::verify_tree_set(const void* set_pointer, const std::string& 
 }
 
 TreeSetView QtFile::verify_packed_trees(const void* set_pointer, const std::string& what,
-                                        const QuadtreeShape& s) const {
+                                        const QuadtreeShape& s) {
   const auto* set = static_cast<const fb::TreeSet*>(set_pointer);
   if (set->bounds() != fb::BoundKind::L2 && set->bounds() != fb::BoundKind::Linf)
     fail(name_, what + ": unknown bound kind " + std::to_string(int(set->bounds())));
@@ -350,39 +350,69 @@ TreeSetView QtFile::verify_packed_trees(const void* set_pointer, const std::stri
   if (bounded_groups < 1 || bounded_groups > s.groups)
     fail(name_, what + ": bounds for " + std::to_string(bounded_groups) + " of " +
                     std::to_string(s.groups) + " channel groups");
-  const PackedShape shape{s.resolution, s.channels, s.groups,
-                          set->bounds() == fb::BoundKind::L2 ? BoundKind::l2 : BoundKind::linf,
-                          bounded_groups};
-  const auto extents = as_span<TreeExtent>(set->packed_extents(), name_, "tree extents");
+  const bool exact_texels = version_ >= 5 && set->exact_texels();
+  const PackedShape shape{
+      s.resolution,   s.channels,
+      s.groups,       set->bounds() == fb::BoundKind::L2 ? BoundKind::l2 : BoundKind::linf,
+      bounded_groups, exact_texels};
+  std::span<const TreeExtent> extents;
+  if (version_ >= 5) {
+    extents = as_span<TreeExtent>(set->node_extents(), name_, "tree extents");
+  } else {  // versions 3 and 4: nodes counted from the set's first, all of them full
+    struct NodeCountExtent {
+      std::uint32_t first_node, node_count;
+      TreeScales scales;
+    };
+    const auto old = as_span<NodeCountExtent>(set->packed_extents(), name_, "tree extents");
+    std::vector<TreeExtent>& converted = converted_extents_.emplace_back();
+    converted.reserve(old.size());
+    const std::uint64_t per_node = std::uint64_t(shape.words_per_node());
+    for (const NodeCountExtent& e : old) {
+      if (std::uint64_t(e.first_node) * per_node > UINT32_MAX)
+        fail(name_, what + ": tree extents lie past 2^32 words");
+      converted.push_back(
+          {std::uint32_t(e.first_node * per_node), e.node_count, e.node_count, e.scales});
+    }
+    extents = converted;
+  }
   std::span<const std::uint32_t> words;
   if (set->words()) words = {set->words()->data(), set->words()->size()};
   if (extents.empty()) fail(name_, "no " + what);
   std::uint64_t total = 0;
   for (const TreeExtent& e : extents) {
-    if (e.first_node != total) fail(name_, what + ": tree extents are not contiguous");
+    if (e.first_word != total) fail(name_, what + ": tree extents are not contiguous");
     if (e.node_count == 0) fail(name_, what + ": a tree has no nodes");
+    if (e.texel_start > e.node_count || (!exact_texels && e.texel_start != e.node_count))
+      fail(name_, what + ": a tree's first texel node " + std::to_string(e.texel_start) +
+                      " is past its " + std::to_string(e.node_count) + " nodes" +
+                      (exact_texels ? "" : ", or set without exact texels"));
     if (!(e.scales.value_scale > 0 && e.scales.value_scale < INFINITY) ||
         !(e.scales.bound_scale > 0 && e.scales.bound_scale < INFINITY))
       fail(name_, what + ": a tree's scales are not finite positive numbers");
-    total += e.node_count;
+    total += e.word_count(shape);
+    if (total > words.size()) break;
   }
-  const std::uint64_t per_node = std::uint64_t(shape.words_per_node());
-  if (words.size() != total * per_node)
+  if (words.size() != total)
     fail(name_, what + ": node data hold " + std::to_string(words.size()) + " words, " +
-                    std::to_string(total * per_node) + " expected");
+                    (total > words.size() ? "more" : std::to_string(total)) + " expected");
   const TreeSetView view(shape, extents, words);
   const int levels = std::countr_zero(unsigned(shape.resolution));
   std::vector<std::uint8_t> depth;
   for (std::size_t i = 0; i < view.size(); ++i) {
     const PackedTreeView tree = view.tree(i);
     const int count = tree.node_count();
-    // Breadth first: node n's children are the next block after those of the nodes before it.
+    // Breadth first: node n's children are the next block after those of the nodes before it;
+    // with exact texels, exactly the nodes at the texel depth are texel nodes.
     depth.assign(std::size_t(count), 0);
     std::uint64_t next = 1;
     for (int n = 0; n < count; ++n) {
       if (std::uint64_t(n) >= next)
         fail(name_, what + ": tree " + std::to_string(i) + ": node " + std::to_string(n) +
                         " is unreachable");
+      if (exact_texels && (depth[n] == shape.texel_depth()) != tree.is_texel_node(n))
+        fail(name_, what + ": tree " + std::to_string(i) + ": texel nodes start at node " +
+                        std::to_string(tree.texel_start()) + ", node " + std::to_string(n) +
+                        " lies at depth " + std::to_string(depth[n]));
       const std::uint32_t link = tree.link(n);
       if (link == 0) continue;
       if ((link & 15u) == 0 || link >> 4 != next)
@@ -406,7 +436,7 @@ TreeSetView QtFile::verify_packed_trees(const void* set_pointer, const std::stri
     // Values: halves that are neither infinite nor NaN (exponent bits all ones).
     const int halves = 2 * shape.groups * shape.channels * 2;
     for (int n = 0; n < count; ++n) {
-      const auto* h = reinterpret_cast<const std::uint16_t*>(tree.node(n) + 1);
+      const std::uint16_t* h = tree.halves(n);
       for (int k = 0; k < halves; ++k)
         if ((h[k] & 0x7c00u) == 0x7c00u)
           fail(name_, what + ": a node holds a NaN or infinite value");
@@ -498,7 +528,7 @@ flatbuffers::Offset<fb::TreeSet> build_tree_set(flatbuffers::FlatBufferBuilder& 
                                                 const TreeSetView& trees,
                                                 const ProjectionOptions& projection) {
   const auto extents = b.CreateVectorOfStructs(
-      reinterpret_cast<const fb::PackedExtent*>(trees.extents().data()), trees.extents().size());
+      reinterpret_cast<const fb::NodeExtent*>(trees.extents().data()), trees.extents().size());
   const auto words = b.CreateVector(trees.words().data(), trees.words().size());
   const PackedShape& s = trees.shape();
   fb::TreeSetBuilder set(b);
@@ -513,7 +543,8 @@ flatbuffers::Offset<fb::TreeSet> build_tree_set(flatbuffers::FlatBufferBuilder& 
   set.add_tolerance_floor(projection.local_floor);
   set.add_bounds(s.bounds == BoundKind::l2 ? fb::BoundKind::L2 : fb::BoundKind::Linf);
   set.add_bounded_groups(s.bounded_groups);
-  set.add_packed_extents(extents);
+  set.add_node_extents(extents);
+  set.add_exact_texels(s.exact_texels);
   set.add_words(words);
   return set.Finish();
 }
@@ -556,7 +587,8 @@ void check_encodable(const TreeSetView& trees) {
 
 std::vector<std::byte> encode_tree(const PackedTreeView& tree, const ProjectionOptions& projection,
                                    const Provenance& provenance) {
-  const TreeExtent extent{0, std::uint32_t(tree.node_count()), tree.scales()};
+  const TreeExtent extent{0, std::uint32_t(tree.node_count()), std::uint32_t(tree.texel_start()),
+                          tree.scales()};
   const TreeSetView set(tree.shape(), {&extent, 1}, tree.words());
   check_encodable(set);
   flatbuffers::FlatBufferBuilder b(set.bytes() + 1024);

@@ -109,6 +109,11 @@ std::string load_error(std::span<const std::byte> bytes) {
   return "";
 }
 
+// The extent of a tree alone in its set.
+TreeExtent whole_tree(const PackedTree& tree) {
+  return {0, std::uint32_t(tree.node_count()), std::uint32_t(tree.texel_start), tree.scales};
+}
+
 // The bytes of a tree or a capture set written with the schema alone, without the library
 // writer's checks (as a damaged or foreign writer could), at the current version.
 std::vector<std::byte> unchecked_file(const TreeSetView& trees, const CaptureSetView* captures,
@@ -120,7 +125,17 @@ std::vector<std::byte> unchecked_file(const TreeSetView& trees, const CaptureSet
     return b.CreateVectorOfStructs(reinterpret_cast<const F*>(v.data()), v.size());
   };
   const PackedShape& s = trees.shape();
-  const auto extents = structs.operator()<format::PackedExtent>(trees.extents());
+  flatbuffers::Offset<flatbuffers::Vector<const format::NodeExtent*>> node_extents = 0;
+  flatbuffers::Offset<flatbuffers::Vector<const format::PackedExtent*>> packed_extents = 0;
+  if (version >= 5) {
+    node_extents = structs.operator()<format::NodeExtent>(trees.extents());
+  } else {  // versions 3 and 4: extents in nodes, all of them full
+    std::vector<format::PackedExtent> old;
+    for (const TreeExtent& e : trees.extents())
+      old.emplace_back(e.first_word / std::uint32_t(s.words_per_node()), e.node_count,
+                       e.scales.value_scale, e.scales.bound_scale);
+    packed_extents = b.CreateVectorOfStructs(old);
+  }
   const auto words = b.CreateVector(trees.words().data(), trees.words().size());
   format::TreeSetBuilder set(b);
   set.add_resolution(s.resolution);
@@ -129,7 +144,12 @@ std::vector<std::byte> unchecked_file(const TreeSetView& trees, const CaptureSet
   set.add_tolerance(0.05);
   set.add_bounds(format::BoundKind(bound_kind));
   if (version >= 4) set.add_bounded_groups(bounded_groups);  // version 3 had no such field
-  set.add_packed_extents(extents);
+  if (version >= 5) {
+    set.add_node_extents(node_extents);
+    set.add_exact_texels(s.exact_texels);
+  } else {
+    set.add_packed_extents(packed_extents);
+  }
   set.add_words(words);
   const auto set_offset = set.Finish();
   flatbuffers::Offset<format::CaptureSet> info = 0;
@@ -405,7 +425,7 @@ TEST(QtFormat, ForeignEmptyAndFutureFilesAreRejected) {
   for (const std::uint32_t version : {1u, 2u})
     EXPECT_EQ(load_error(old_version_file(old, version)), "");
   const PackedTree tree = sample_tree(8, 1, 0);
-  const TreeExtent extent{0, std::uint32_t(tree.node_count()), tree.scales};
+  const TreeExtent extent = whole_tree(tree);
   const TreeSetView set(tree.shape, {&extent, 1}, tree.words);
   EXPECT_EQ(load_error(unchecked_file(set, nullptr)), "");
   std::vector<std::byte> future = unchecked_file(set, nullptr);
@@ -413,12 +433,12 @@ TEST(QtFormat, ForeignEmptyAndFutureFilesAreRejected) {
     flatbuffers::FlatBufferBuilder b;
     const auto words = b.CreateVector(tree.words.data(), tree.words.size());
     const auto extents =
-        b.CreateVectorOfStructs(reinterpret_cast<const format::PackedExtent*>(&extent), 1);
+        b.CreateVectorOfStructs(reinterpret_cast<const format::NodeExtent*>(&extent), 1);
     format::TreeSetBuilder sb(b);
     sb.add_resolution(8);
     sb.add_channels(1);
     sb.add_groups(1);
-    sb.add_packed_extents(extents);
+    sb.add_node_extents(extents);
     sb.add_words(words);
     const auto trees = sb.Finish();
     format::FinishFileBuffer(b, format::CreateFile(b, kQtFormatVersion + 1, format::Kind::Tree,
@@ -452,7 +472,7 @@ TEST(QtFormat, SemanticViolationsAreNamedAndNeverWritten) {
     return tree;
   };
   auto error_of = [](const PackedTree& tree) {
-    const TreeExtent extent{0, std::uint32_t(tree.node_count()), tree.scales};
+    const TreeExtent extent = whole_tree(tree);
     const TreeSetView set(tree.shape, {&extent, 1}, tree.words);
     return refused(unchecked_file(set, nullptr), [&] { encode_tree(tree.view(), {}, {}); });
   };
@@ -471,6 +491,7 @@ TEST(QtFormat, SemanticViolationsAreNamedAndNeverWritten) {
   // A chain deeper than a resolution of 8 allows (3 levels of nodes).
   PackedTree chain = pack(sample_float_tree(8, 1, 0, 0.0));
   chain.words.assign(std::size_t(4) * chain.shape.words_per_node(), 0);
+  chain.texel_start = 4;
   for (int n = 0; n < 3; ++n)
     chain = with_link(chain, n, std::uint32_t(n + 1) << 4 | 1u);
   EXPECT_NE(error_of(chain).find("deeper than its resolution"), std::string::npos);
@@ -487,7 +508,7 @@ TEST(QtFormat, SemanticViolationsAreNamedAndNeverWritten) {
     EXPECT_NE(error_of(scaled).find("scales"), std::string::npos) << scale;
   }
   // A bound kind no writer holds.
-  const TreeExtent extent{0, std::uint32_t(good.node_count()), good.scales};
+  const TreeExtent extent = whole_tree(good);
   EXPECT_EQ(
       load_error(unchecked_file(TreeSetView(good.shape, {&extent, 1}, good.words), nullptr, 7)),
       "input.qt: trees: unknown bound kind 7");
@@ -504,7 +525,7 @@ TEST(QtFormat, SemanticViolationsAreNamedAndNeverWritten) {
 // are, in place, and convolve as they did.
 TEST(QtFormat, Version3FilesLoadInPlace) {
   const PackedTree tree = sample_tree(32, 3, 2);
-  const TreeExtent extent{0, std::uint32_t(tree.node_count()), tree.scales};
+  const TreeExtent extent = whole_tree(tree);
   const QtFile file = QtFile::from_bytes(
       unchecked_file(TreeSetView(tree.shape, {&extent, 1}, tree.words), nullptr, 0, 3), "v3.qt");
   EXPECT_EQ(file.format_version(), 3u);
@@ -512,6 +533,56 @@ TEST(QtFormat, Version3FilesLoadInPlace) {
   EXPECT_TRUE(same_words(file.tree().words(), tree.words));
   const PackedTree light = sample_tree(16, 1, 0);
   EXPECT_EQ(convolve(file.tree(), light.view()).value, convolve(tree.view(), light.view()).value);
+}
+
+// Version 5: trees with exact texels (captures) hold texel nodes of values alone. They write and
+// load in place, convolve as the full nodes did within their bounds, and a first texel node that
+// disagrees with the nodes' depths is refused by name. Capture sets of version 4 (full nodes,
+// extents counted in nodes) still load and convolve as they did.
+TEST(QtFormat, ExactTexelTreesLoadInPlaceAndOlderCaptureSetsStillLoad) {
+  const Quadtree source = sample_float_tree(32, 3, 0, 0.0);  // random texels: every level
+  const PackedTree full = pack(source), exact = pack_exact_texels(source);
+  ASSERT_LT(exact.texel_start, std::size_t(exact.node_count()));
+  ASSERT_LT(exact.words.size(), full.words.size());
+  const QtFile file = QtFile::from_bytes(encode_tree(exact.view(), {}, {}), "exact.qt");
+  EXPECT_EQ(file.format_version(), kQtFormatVersion);
+  EXPECT_TRUE(file.tree().shape().exact_texels);
+  EXPECT_EQ(file.tree().texel_start(), int(exact.texel_start));
+  EXPECT_TRUE(same_words(file.tree().words(), exact.words));
+  const PackedTree light = sample_tree(32, 3, 4);
+  const Convolution with_full = convolve(light.view(), full.view());
+  const Convolution with_exact = convolve(light.view(), file.tree());
+  for (int c = 0; c < 3; ++c)
+    EXPECT_NEAR(with_exact.value[c], with_full.value[c], with_full.bound[c] + with_exact.bound[c]);
+  // Texel nodes that start one node early, or late.
+  for (const int shift : {-1, 1}) {
+    TreeExtent extent = whole_tree(exact);
+    extent.texel_start = std::uint32_t(int(extent.texel_start) + shift);
+    const std::string error =
+        load_error(unchecked_file(TreeSetView(exact.shape, {&extent, 1}, exact.words), nullptr));
+    EXPECT_TRUE(error.find("texel nodes start at node") != std::string::npos ||
+                error.find("node data hold") != std::string::npos)
+        << error;
+  }
+  // A set without exact texels whose extent claims texel nodes.
+  {
+    TreeExtent extent = whole_tree(full);
+    extent.texel_start -= 1;
+    EXPECT_NE(load_error(unchecked_file(TreeSetView(full.shape, {&extent, 1}, full.words), nullptr))
+                  .find("first texel node"),
+              std::string::npos);
+  }
+  // A version 4 capture set, as earlier builds wrote them.
+  const CaptureSet captures = sample_captures(5);
+  const CaptureSetView view = captures.view();
+  const QtFile v4 = QtFile::from_bytes(unchecked_file(view.trees, &view, 0, 4), "v4.qt");
+  EXPECT_EQ(v4.format_version(), 4u);
+  ASSERT_EQ(v4.captures().size(), 5u);
+  for (std::size_t i = 0; i < 5; ++i) {
+    EXPECT_TRUE(same_words(v4.captures().trees.tree(i).words(), captures.trees.tree(i).words()));
+    EXPECT_EQ(convolve(light.view(), v4.captures().trees.tree(i)).value,
+              convolve(light.view(), captures.trees.tree(i)).value);
+  }
 }
 
 TEST(QtFormat, WritesAreAtomic) {

@@ -68,7 +68,9 @@ def test_tree_words_are_the_nodes_in_place():
     tree = basis.project(np.ones((16, 16), np.float32) * np.arange(16, dtype=np.float32), 0.01)
     words = tree.words
     assert words.dtype == np.uint32
+    assert tree.texel_start == tree.node_count  # no texel nodes of values alone
     assert words.shape == (tree.node_count, tree.words_per_node)
+    assert tree.texel_words.shape[0] == 0
     assert not words.flags.writeable
     assert words.base is not None  # a view, kept alive by the tree
     assert np.array_equal(tree.words, words)
@@ -123,6 +125,10 @@ def test_files_written_here_are_read_by_the_tools(made_by_tools, tmp_path):
     tool_captures = basis.load(str(d / "captures.qt")).captures()
     for k in range(len(POINTS)):
         assert np.array_equal(captures.tree(k).words, tool_captures.tree(k).words)
+        assert np.array_equal(captures.tree(k).texel_words, tool_captures.tree(k).texel_words)
+        # Captures' texels are exact: their texel nodes hold 3 channels' 4 halves alone.
+        tree = captures.tree(k)
+        assert tree.texel_words.shape == (tree.node_count - tree.texel_start, 6)
     # The tools' full-resolution reference reads the recipe written here.
     tool("qtconvolve", tmp_path / "t.qt", tmp_path / "c.qt", "--reference", "-q")
 

@@ -26,9 +26,8 @@ void check_compatible(const PackedShape& a, const PackedShape& b) {
                                 std::to_string(b.channels) + " channels");
 }
 
-// How far a half-rounded value may lie from the average it stands for, in units of its tree's
-// value scale: half an ulp, 2^-11 of the value, or half the subnormal spacing.
-constexpr double kHalfRounding = 0x1p-11, kHalfSubnormalRounding = 0x1p-25;
+// How far a half-rounded value may lie from the average it stands for: kHalfRounding and
+// kHalfSubnormalRounding (packed_tree.h).
 // Summed over the stopped pairs, the rounding terms |a| db + |b| da are at most
 // kRoundingPerMagnitude x (the sum of area |a b|) + kRoundingFloor, in units of the value scales:
 // values in those units lie below 2^15, so |a| 2^-25 <= 2^-10 and the areas add up to 1.
@@ -189,6 +188,12 @@ struct DescentConstants {
   const std::uint32_t* b;
   std::size_t words_a, words_b;
   std::size_t codes_a, codes_b;  // word offset of the bound codes in a node
+  // Texel nodes of exact texels (values alone, nodes from texel_start on): how many words each
+  // node before them has fewer, and the factor that brings their halves' rounding to bound
+  // units (value scale / bound scale, rounded up).
+  std::uint32_t texel_start_a, texel_start_b;
+  std::size_t texel_shrink_a, texel_shrink_b;
+  float texel_bound_a, texel_bound_b;
   float value_scale, bound_scale;
   float values_in_bound_units, linf_a_scale, linf_b_scale;
   // Weighted descents: a stands for sum_g weight[g] a_g; total_weight = sum_g |weight[g]|.
@@ -211,6 +216,14 @@ struct DescentConstants {
         words_b(tb.shape().words_per_node()),
         codes_a(1 + 2 * ta.shape().groups * CA),
         codes_b(1 + 2 * tb.shape().groups * CB),
+        texel_start_a(std::uint32_t(ta.texel_start())),
+        texel_start_b(std::uint32_t(tb.texel_start())),
+        texel_shrink_a(words_a - std::size_t(ta.shape().words_per_texel_node())),
+        texel_shrink_b(words_b - std::size_t(tb.shape().words_per_texel_node())),
+        texel_bound_a(
+            float(double(ta.scales().value_scale) / ta.scales().bound_scale * (1 + 0x1p-20))),
+        texel_bound_b(
+            float(double(tb.scales().value_scale) / tb.scales().bound_scale * (1 + 0x1p-20))),
         targeted(accuracy > 0) {
     if (!weights.empty()) {
       combined = weights.size() > 1;
@@ -234,16 +247,29 @@ struct DescentConstants {
     per_product = float((accuracy / 2 - kRoundingPerMagnitude) * values_in_bound_units);
     per_value = float(accuracy / 2 * values_in_bound_units);
     per_magnitude = float(kRoundingPerMagnitude * values_in_bound_units);
+    // A root that is a texel node (a tree of 2 x 2 texels) holds values from its first word.
+    const std::uint32_t* values_a = a + (texel_start_a == 0 ? 0 : 1);
+    const std::uint32_t* values_b = b + (texel_start_b == 0 ? 0 : 1);
     for (int c = 0; c < C; ++c) {
       __m128 root_a = _mm_setzero_ps();
       for (int g = 0; g < (weights.empty() ? 1 : int(weights.size())); ++g)
-        root_a =
-            _mm_add_ps(root_a, _mm_mul_ps(_mm_set1_ps(weight[g]),
-                                          load_halves(a + 1 + 2 * (g * CA + (CA == 1 ? 0 : c)))));
+        root_a = _mm_add_ps(root_a,
+                            _mm_mul_ps(_mm_set1_ps(weight[g]),
+                                       load_halves(values_a + 2 * (g * CA + (CA == 1 ? 0 : c)))));
       const float product =
-          lane_sum(abs_ps(_mm_mul_ps(root_a, load_halves(b + 1 + 2 * (CB == 1 ? 0 : c)))));
+          lane_sum(abs_ps(_mm_mul_ps(root_a, load_halves(values_b + 2 * (CB == 1 ? 0 : c)))));
       allowed[c] = float(accuracy / 2 * (double(product) / 4) * values_in_bound_units);
     }
+  }
+
+  // The words of node n of a and of b.
+  const std::uint32_t* node_a(std::uint32_t n) const {
+    return a + std::size_t(n) * words_a -
+           std::size_t(std::max(n, texel_start_a) - texel_start_a) * texel_shrink_a;
+  }
+  const std::uint32_t* node_b(std::uint32_t n) const {
+    return b + std::size_t(n) * words_b -
+           std::size_t(std::max(n, texel_start_b) - texel_start_b) * texel_shrink_b;
   }
 };
 
@@ -306,32 +332,53 @@ struct NarrowPairs {
     float magnitude_of(int c) const { return lane_sum(magnitude[c]); }
   };
 
+  // The bound of exact texels of magnitude m (sum_g |w_g v_g| for weighted groups) whose
+  // weights add up to total_weight, in bound units given by `scale`.
+  static __m128 texel_bounds(__m128 m, float total_weight, float scale) {
+    return _mm_mul_ps(_mm_add_ps(_mm_mul_ps(m, _mm_set1_ps(float(kHalfRounding))),
+                                 _mm_set1_ps(float(kHalfSubnormalRounding) * total_weight)),
+                      _mm_set1_ps(scale));
+  }
+
   // Adds the pair's quadrants that stop (leaves, or within the accuracy target) and returns
-  // the internal quadrants that go on.
+  // the internal quadrants that go on. kTexelA, kTexelB: the node of a, of b, is a texel node of
+  // exact texels, values alone.
+  template <bool kTexelA, bool kTexelB>
   static unsigned visit(const DescentConstants<CA, CB>& k, const std::uint32_t* wa,
                         const std::uint32_t* wb, unsigned internal, float area, Sums& sums) {
+    const std::uint32_t* values_a = wa + (kTexelA ? 0 : 1);
+    const std::uint32_t* values_b = wb + (kTexelB ? 0 : 1);
     __m128 vb[C], product[C], magnitude[C], term[C];
     for (int c = 0; c < C; ++c) {
       const int ca = CA == 1 ? 0 : c;
       __m128 va, abs_a, sa;
       if constexpr (GW == 1) {
-        va = load_halves(wa + 1 + 2 * ca);
+        va = load_halves(values_a + 2 * ca);
         abs_a = abs_ps(va);
-        sa = load_bound_codes(wa + k.codes_a + ca);
+        if constexpr (kTexelA)
+          sa = texel_bounds(abs_a, 1, k.texel_bound_a);
+        else
+          sa = load_bound_codes(wa + k.codes_a + ca);
       } else {
         va = abs_a = sa = _mm_setzero_ps();
         for (int g = 0; g < GW; ++g) {
-          const __m128 v = load_halves(wa + 1 + 2 * (g * CA + ca));
+          const __m128 v = load_halves(values_a + 2 * (g * CA + ca));
           va = _mm_add_ps(va, _mm_mul_ps(_mm_set1_ps(k.weight[g]), v));
           abs_a = _mm_add_ps(abs_a, _mm_mul_ps(_mm_set1_ps(k.abs_weight[g]), abs_ps(v)));
-          sa = _mm_add_ps(sa, _mm_mul_ps(_mm_set1_ps(k.abs_weight[g]),
-                                         load_bound_codes(wa + k.codes_a + g * CA + ca)));
+          if constexpr (!kTexelA)
+            sa = _mm_add_ps(sa, _mm_mul_ps(_mm_set1_ps(k.abs_weight[g]),
+                                           load_bound_codes(wa + k.codes_a + g * CA + ca)));
         }
+        if constexpr (kTexelA) sa = texel_bounds(abs_a, k.total_weight, k.texel_bound_a);
       }
-      vb[c] = load_halves(wb + 1 + 2 * (CB == 1 ? 0 : c));
+      vb[c] = load_halves(values_b + 2 * (CB == 1 ? 0 : c));
       product[c] = _mm_mul_ps(va, vb[c]);
       magnitude[c] = _mm_mul_ps(abs_a, abs_ps(vb[c]));
-      const __m128 sb = load_bound_codes(wb + k.codes_b + (CB == 1 ? 0 : c));
+      __m128 sb;
+      if constexpr (kTexelB)
+        sb = texel_bounds(abs_ps(vb[c]), 1, k.texel_bound_b);
+      else
+        sb = load_bound_codes(wb + k.codes_b + (CB == 1 ? 0 : c));
       term[c] = _mm_mul_ps(sa, sb);
       if constexpr (kLinfA || kLinfB)
         term[c] = linf_terms<kLinfA, kLinfB>(k, term[c], sa, sb, abs_a, vb[c]);
@@ -355,7 +402,7 @@ struct NarrowPairs {
     for (int c = 0; c < C; ++c) {
       sums.value[0][c] = _mm_add_ps(sums.value[0][c], _mm_mul_ps(product[c], leaf_area));
       for (int g = 1; g < GA; ++g) {
-        const __m128 vg = load_halves(wa + 1 + 2 * (g * CA + (CA == 1 ? 0 : c)));
+        const __m128 vg = load_halves(values_a + 2 * (g * CA + (CA == 1 ? 0 : c)));
         sums.value[g][c] =
             _mm_add_ps(sums.value[g][c], _mm_mul_ps(_mm_mul_ps(vg, vb[c]), leaf_area));
       }
@@ -429,9 +476,9 @@ struct WidePairs {
     float magnitude_of(int c) const { return lanes(magnitude, c); }
   };
 
-  // The halves of group g of a node of `channels` channels, as 12 lanes.
+  // The halves of group g of a node of `channels` channels whose values start at w, as 12 lanes.
   static __m512 values(const std::uint32_t* w, int channels, int g) {
-    const std::uint32_t* p = w + 1 + 2 * g * channels;
+    const std::uint32_t* p = w + 2 * g * channels;
     if (channels == 1) return _mm512_maskz_broadcast_f32x4(0xffff, load_halves(p));
     return _mm512_maskz_cvtph_ps(0xffff, _mm256_maskz_loadu_epi16(kLanes, p));
   }
@@ -444,26 +491,46 @@ struct WidePairs {
         _mm512_set1_epi32(int(kBoundCodeBias))));
   }
 
+  // The bound of exact texels of magnitude m (see NarrowPairs::texel_bounds).
+  static __m512 texel_bounds(__m512 m, float total_weight, float scale) {
+    return _mm512_mul_ps(
+        _mm512_fmadd_ps(m, _mm512_set1_ps(float(kHalfRounding)),
+                        _mm512_set1_ps(float(kHalfSubnormalRounding) * total_weight)),
+        _mm512_set1_ps(scale));
+  }
+
+  template <bool kTexelA, bool kTexelB>
   static unsigned visit(const DescentConstants<CA, CB>& k, const std::uint32_t* wa,
                         const std::uint32_t* wb, unsigned internal, float area, Sums& sums) {
+    const std::uint32_t* values_a = wa + (kTexelA ? 0 : 1);
+    const std::uint32_t* values_b = wb + (kTexelB ? 0 : 1);
     __m512 va, abs_a, sa;
     if constexpr (GW == 1) {
-      va = values(wa, CA, 0);
+      va = values(values_a, CA, 0);
       abs_a = abs512(va);
-      sa = bounds(wa, CA, k.codes_a);
+      if constexpr (kTexelA)
+        sa = texel_bounds(abs_a, 1, k.texel_bound_a);
+      else
+        sa = bounds(wa, CA, k.codes_a);
     } else {
       va = abs_a = sa = _mm512_setzero_ps();
       for (int g = 0; g < GW; ++g) {
-        const __m512 v = values(wa, CA, g);
+        const __m512 v = values(values_a, CA, g);
         va = _mm512_fmadd_ps(_mm512_set1_ps(k.weight[g]), v, va);
         abs_a = _mm512_fmadd_ps(_mm512_set1_ps(k.abs_weight[g]), abs512(v), abs_a);
-        sa = _mm512_fmadd_ps(_mm512_set1_ps(k.abs_weight[g]), bounds(wa, CA, k.codes_a + g * CA),
-                             sa);
+        if constexpr (!kTexelA)
+          sa = _mm512_fmadd_ps(_mm512_set1_ps(k.abs_weight[g]), bounds(wa, CA, k.codes_a + g * CA),
+                               sa);
       }
+      if constexpr (kTexelA) sa = texel_bounds(abs_a, k.total_weight, k.texel_bound_a);
     }
-    const __m512 vb = values(wb, CB, 0);
+    const __m512 vb = values(values_b, CB, 0);
     const __m512 product = _mm512_mul_ps(va, vb);
-    const __m512 sb = bounds(wb, CB, k.codes_b);
+    __m512 sb;
+    if constexpr (kTexelB)
+      sb = texel_bounds(abs512(vb), 1, k.texel_bound_b);
+    else
+      sb = bounds(wb, CB, k.codes_b);
     __m512 term = _mm512_mul_ps(sa, sb);
     if constexpr (kLinfA || kLinfB) term = linf_terms<kLinfA, kLinfB>(k, term, sa, sb, abs_a, vb);
     if (k.targeted) {
@@ -490,7 +557,7 @@ struct WidePairs {
     for (int g = 1; g < GA; ++g)
       sums.value[g] =
           _mm512_mask_add_ps(sums.value[g], stop, sums.value[g],
-                             _mm512_mul_ps(_mm512_mul_ps(values(wa, CA, g), vb), area_v));
+                             _mm512_mul_ps(_mm512_mul_ps(values(values_a, CA, g), vb), area_v));
     sums.bound = _mm512_mask_add_ps(sums.bound, stop, sums.bound, _mm512_mul_ps(term, area_v));
     sums.magnitude = _mm512_mask_add_ps(sums.magnitude, stop, sums.magnitude,
                                         _mm512_mul_ps(_mm512_mul_ps(abs_a, abs512(vb)), area_v));
@@ -522,10 +589,20 @@ class PackedDescent {
     float area = quadrant_area;
     std::uint32_t na = root_a, nb = root_b;
     for (;;) {
-      const std::uint32_t* wa = k_.a + std::size_t(na) * k_.words_a;
-      const std::uint32_t* wb = k_.b + std::size_t(nb) * k_.words_b;
-      const std::uint32_t la = wa[0], lb = wb[0];
-      const unsigned internal = Pairs::visit(k_, wa, wb, la & lb & 0xFu, area, sums);
+      const std::uint32_t* wa = k_.node_a(na);
+      const std::uint32_t* wb = k_.node_b(nb);
+      // Texel nodes of exact texels (values alone) have no children.
+      const bool texel_a = na >= k_.texel_start_a, texel_b = nb >= k_.texel_start_b;
+      const std::uint32_t la = texel_a ? 0 : wa[0], lb = texel_b ? 0 : wb[0];
+      unsigned internal;
+      if (!texel_a && !texel_b) [[likely]]
+        internal = Pairs::template visit<false, false>(k_, wa, wb, la & lb & 0xFu, area, sums);
+      else if (!texel_a)
+        internal = Pairs::template visit<false, true>(k_, wa, wb, 0, area, sums);
+      else if (!texel_b)
+        internal = Pairs::template visit<true, false>(k_, wa, wb, 0, area, sums);
+      else
+        internal = Pairs::template visit<true, true>(k_, wa, wb, 0, area, sums);
       // Without a branch on the data (which no predictor learns): every quadrant's pair is
       // written, the tail passes the internal ones.
       if (tail - head > kRing - 4) [[unlikely]] {
@@ -544,9 +621,7 @@ class PackedDescent {
           _mm_store_si128(reinterpret_cast<__m128i*>(children), cb);
           for (unsigned q = 0; q < 4; ++q)
             if (internal >> q & 1)
-              _mm_prefetch(
-                  reinterpret_cast<const char*>(k_.b + std::size_t(children[q]) * k_.words_b),
-                  _MM_HINT_T0);
+              _mm_prefetch(reinterpret_cast<const char*>(k_.node_b(children[q])), _MM_HINT_T0);
           auto slot = [&] { return reinterpret_cast<__m128i*>(&ring[tail & kMask]); };
           _mm_storel_epi64(slot(), low);
           tail += internal & 1;

@@ -17,7 +17,10 @@ float PackedTreeView::largest_deviation_bound(int n, int g, int c, int q, int le
   return float(double(b) * std::max(1.0, texels_per_side) * (1 + 1e-6));
 }
 
-PackedTree pack(const Quadtree& tree, BoundKind bounds, int bounded_groups) {
+namespace {
+
+PackedTree pack_tree(const Quadtree& tree, BoundKind bounds, int bounded_groups,
+                     bool exact_texels) {
   const QuadtreeView source = tree.view();
   const QuadtreeShape& s = tree.shape;
   if (bounded_groups < 1 || bounded_groups > s.bounded_groups)
@@ -25,9 +28,8 @@ PackedTree pack(const Quadtree& tree, BoundKind bounds, int bounded_groups) {
                                 " groups of a tree that has them for " +
                                 std::to_string(s.bounded_groups));
   PackedTree out;
-  out.shape = {s.resolution, s.channels, s.groups, bounds, bounded_groups};
+  out.shape = {s.resolution, s.channels, s.groups, bounds, bounded_groups, exact_texels};
   const int count = source.node_count();
-  const int words = out.shape.words_per_node();
   const bool have_deviations = !tree.deviations.empty();
   auto source_bound = [&](int node, int g, int c, int q) -> double {
     if (bounds == BoundKind::l2 && have_deviations)
@@ -85,13 +87,43 @@ PackedTree pack(const Quadtree& tree, BoundKind bounds, int bounded_groups) {
     return std::uint8_t(code);
   };
 
-  // Breadth-first order: node i's children get the next indices, in quadrant order.
-  out.words.assign(std::size_t(count) * words, 0);
-  std::vector<int> order{0};
+  // Breadth-first order: node i's children get the next indices, in quadrant order; texel
+  // nodes, the last level, hold values alone with exact texels.
+  std::vector<int> order{0}, depth(std::size_t(count), 0);
   order.reserve(count);
+  for (std::size_t i = 0; i < order.size(); ++i)
+    for (int q = 0; q < 4; ++q)
+      if (const int child = source.child(order[i], q)) {
+        depth[std::size_t(child)] = depth[std::size_t(order[i])] + 1;
+        order.push_back(child);
+      }
+  out.texel_start = std::size_t(count);
+  if (exact_texels) {
+    const int texel_depth = out.shape.texel_depth();
+    for (std::size_t i = 0; i < order.size(); ++i)
+      if (depth[std::size_t(order[i])] == texel_depth) {
+        out.texel_start = i;
+        break;
+      }
+    for (std::size_t i = out.texel_start; i < order.size(); ++i)
+      for (int g = 0; g < bounded_groups; ++g)
+        for (int c = 0; c < s.channels; ++c)
+          for (int q = 0; q < 4; ++q)
+            if (source_bound(order[i], g, c, q) != 0)
+              throw std::invalid_argument(
+                  "texels are not exact: a single-texel quadrant has a bound of " +
+                  std::to_string(source_bound(order[i], g, c, q)));
+  }
+  out.words.assign(packed_node_offset(out.shape, out.texel_start, std::size_t(count)), 0);
+  order.assign(1, 0);
   for (std::size_t i = 0; i < order.size(); ++i) {
     const int n = order[i];
-    std::uint32_t* w = out.words.data() + i * words;
+    std::uint32_t* w = out.words.data() + packed_node_offset(out.shape, out.texel_start, i);
+    if (i >= out.texel_start) {  // a texel node: values alone
+      std::memcpy(w, halves.data() + std::size_t(n) * values_per_node,
+                  values_per_node * sizeof(std::uint16_t));
+      continue;
+    }
     std::uint32_t mask = 0;
     const auto first = std::uint32_t(order.size());
     for (int q = 0; q < 4; ++q)
@@ -107,6 +139,16 @@ PackedTree pack(const Quadtree& tree, BoundKind bounds, int bounded_groups) {
       codes[k] = code_for(moved_bounds[std::size_t(n) * bounds_per_node + k]);
   }
   return out;
+}
+
+}  // namespace
+
+PackedTree pack(const Quadtree& tree, BoundKind bounds, int bounded_groups) {
+  return pack_tree(tree, bounds, bounded_groups, false);
+}
+
+PackedTree pack_exact_texels(const Quadtree& tree, BoundKind bounds) {
+  return pack_tree(tree, bounds, 1, true);
 }
 
 }  // namespace basis

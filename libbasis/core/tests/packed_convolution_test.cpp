@@ -1,5 +1,6 @@
 // Convolution of packed trees: the packed trees' product to half precision, the full-resolution
-// product within the certified bound for every kind of bound, SIMD equal to scalar,
+// product within the certified bound for every kind of bound, with and without texel nodes of
+// values alone (exact texels), SIMD equal to scalar,
 // accuracy-targeted descents within their bounds and no looser than the target allows, channel
 // groups, and groups combined with weights (signed) within their bound.
 #include <gtest/gtest.h>
@@ -38,8 +39,13 @@ TEST_P(PackedConvolution, WithinTheBoundOfTheTexelsAndHalfPrecisionOfTheTrees) {
         for (const auto& [name_b, grid_b] : fb) {
           const std::string what = name_a + " x " + name_b + " kinds " +
                                    std::to_string(int(kind_a)) + std::to_string(int(kind_b));
-          const PackedTree a = pack(project(grid_a, {.tolerance = 0.1}), kind_a);
-          const PackedTree b = pack(project(grid_b, {.tolerance = 0.1}), kind_b);
+          // Texel nodes of values alone (exact texels) on either side, or both, or neither,
+          // one arrangement per pair of kinds.
+          const bool exact_a = kind_a == BoundKind::linf, exact_b = kind_b == BoundKind::l2;
+          const Quadtree tree_a = project(grid_a, {.tolerance = 0.1});
+          const Quadtree tree_b = project(grid_b, {.tolerance = 0.1});
+          const PackedTree a = exact_a ? pack_exact_texels(tree_a, kind_a) : pack(tree_a, kind_a);
+          const PackedTree b = exact_b ? pack_exact_texels(tree_b, kind_b) : pack(tree_b, kind_b);
           const Convolution simd = convolve(a.view(), b.view());
           const Convolution scalar = convolve_scalar(a.view(), b.view());
           // The dense product of the packed trees' reconstructions, to half precision: a
@@ -78,24 +84,28 @@ TEST_P(PackedConvolution, AccuracyTargetsKeepTheirBounds) {
   for (const auto& [name_a, grid_a] : fa)
     for (const auto& [name_b, grid_b] : fb) {
       const PackedTree a = pack(project(grid_a, {.tolerance = 0.02}), BoundKind::l2);
-      const PackedTree b = pack(project(grid_b, {.tolerance = 0.02}), BoundKind::l2);
-      const Convolution full = convolve(a.view(), b.view());
-      const int n = std::max(k.res_a, k.res_b), sa = n / k.res_a, sb = n / k.res_b;
-      for (const double accuracy : {0.001, 0.01, 0.1}) {
-        const Convolution simd = convolve(a.view(), b.view(), {.accuracy = accuracy});
-        const Convolution scalar = convolve_scalar(a.view(), b.view(), {.accuracy = accuracy});
-        for (int c = 0; c < 3; ++c) {
-          const int ca = k.channels_a == 1 ? 0 : c, cb = k.channels_b == 1 ? 0 : c;
-          double texels = 0;
-          for (int y = 0; y < n; ++y)
-            for (int x = 0; x < n; ++x)
-              texels += double(grid_a.at(0, ca, x / sa, y / sa)) * grid_b.at(0, cb, x / sb, y / sb);
-          texels /= double(n) * n;
-          for (const Convolution& r : {simd, scalar}) {
-            EXPECT_LE(std::abs(r.value[c] - texels), r.bound[c] * (1 + 1e-4) + 1e-6 * texels)
-                << name_a << " x " << name_b << " accuracy " << accuracy;
-            EXPECT_LE(r.bound[c], accuracy * r.value[c] * (1 + 1e-4) + full.bound[c] * (1 + 1e-4))
-                << name_a << " x " << name_b << " accuracy " << accuracy;
+      for (const bool exact_b : {false, true}) {
+        const Quadtree tree_b = project(grid_b, {.tolerance = 0.02});
+        const PackedTree b = exact_b ? pack_exact_texels(tree_b) : pack(tree_b);
+        const Convolution full = convolve(a.view(), b.view());
+        const int n = std::max(k.res_a, k.res_b), sa = n / k.res_a, sb = n / k.res_b;
+        for (const double accuracy : {0.001, 0.01, 0.1}) {
+          const Convolution simd = convolve(a.view(), b.view(), {.accuracy = accuracy});
+          const Convolution scalar = convolve_scalar(a.view(), b.view(), {.accuracy = accuracy});
+          for (int c = 0; c < 3; ++c) {
+            const int ca = k.channels_a == 1 ? 0 : c, cb = k.channels_b == 1 ? 0 : c;
+            double texels = 0;
+            for (int y = 0; y < n; ++y)
+              for (int x = 0; x < n; ++x)
+                texels +=
+                    double(grid_a.at(0, ca, x / sa, y / sa)) * grid_b.at(0, cb, x / sb, y / sb);
+            texels /= double(n) * n;
+            for (const Convolution& r : {simd, scalar}) {
+              EXPECT_LE(std::abs(r.value[c] - texels), r.bound[c] * (1 + 1e-4) + 1e-6 * texels)
+                  << name_a << " x " << name_b << " accuracy " << accuracy;
+              EXPECT_LE(r.bound[c], accuracy * r.value[c] * (1 + 1e-4) + full.bound[c] * (1 + 1e-4))
+                  << name_a << " x " << name_b << " accuracy " << accuracy << " exact " << exact_b;
+            }
           }
         }
       }
@@ -172,7 +182,10 @@ TEST(PackedConvolution, WeightedGroupsLieWithinTheirBoundOfTheTexels) {
           ASSERT_EQ(tree_a.shape.bounded_groups, 3);
           const PackedTree a = pack(tree_a, kind_a, 3);
           for (const auto& [name_b, grid_b] : test_functions(64, channels_b, 43)) {
-            const PackedTree b = pack(project(grid_b, {.tolerance = 0.1}), kind_b);
+            // Texel nodes of values alone for like channels with RMS bounds (as captures).
+            const bool exact_b = channels_a == channels_b && kind_b == BoundKind::l2;
+            const Quadtree tree_b = project(grid_b, {.tolerance = 0.1});
+            const PackedTree b = exact_b ? pack_exact_texels(tree_b, kind_b) : pack(tree_b, kind_b);
             for (const auto& w : weight_sets)
               for (const double accuracy : {0.0, 0.01, 0.1}) {
                 const std::string what = name_a + " x " + name_b + " kinds " +

@@ -72,69 +72,116 @@ TEST(Half, RoundsToNearestEven) {
   }
 }
 
+// Calls visit(node, depth) for every node of a packed tree, walking its links from the root.
+template <typename Visit>
+void for_each_node_depth(const PackedTreeView& p, Visit&& visit) {
+  auto descend = [&](auto&& self, int node, int depth) -> void {
+    visit(node, depth);
+    for (int q = 0; q < 4; ++q)
+      if (const int child = p.child(node, q)) self(self, child, depth + 1);
+  };
+  descend(descend, 0, 0);
+}
+
 class PackedTrees : public ::testing::TestWithParam<std::tuple<int, int>> {};
 
 TEST_P(PackedTrees, KeepTopologyValuesAndCertifiedBounds) {
   const int n = std::get<0>(GetParam()), channels = std::get<1>(GetParam());
   for (const auto& function : test_functions(n, channels, 21)) {
     const Quadtree tree = project(function.grid, {.tolerance = 0.05});
-    for (const BoundKind kind : {BoundKind::l2, BoundKind::linf}) {
-      const PackedTree packed = pack(tree, kind);
-      const PackedTreeView p = packed.view();
-      ASSERT_EQ(p.node_count(), tree.node_count());
-      // The same cells, breadth first: every leaf of one is a leaf of the other.
-      std::vector<std::array<int, 4>> cells_a, cells_b;
-      for_each_leaf(tree.view(), [&](int, int q, int level, int x, int y) {
-        cells_a.push_back({q, level, x, y});
-      });
-      std::vector<std::pair<int, int>> leaves;  // (node, quadrant) of p, in the same order
-      for_each_leaf(p, [&](int node, int q, int level, int x, int y) {
-        cells_b.push_back({q, level, x, y});
-        leaves.push_back({node, q});
-      });
-      ASSERT_EQ(cells_a, cells_b) << function.name;
-      // Breadth first: children follow their parent, blocks in order.
-      std::uint32_t next = 1;
-      for (int node = 0; node < p.node_count(); ++node) {
-        const std::uint32_t link = p.link(node);
-        if (link == 0) continue;
-        ASSERT_EQ(link >> 4, next);
-        next += std::uint32_t(std::popcount(link & 15u));
-      }
-      ASSERT_EQ(next, std::uint32_t(p.node_count()));
-      // Values within half precision of the tree's; bounds certified against the texels.
-      std::size_t leaf = 0;
-      for_each_leaf(tree.view(), [&](int node, int q, int level, int x, int y) {
-        const auto [pn, pq] = leaves[leaf++];
-        const int size = n >> level;
-        for (int c = 0; c < channels; ++c) {
-          const float v = tree.view().value(node, 0, c, q), pv = p.value(pn, 0, c, pq);
-          ASSERT_LE(std::abs(pv - v), std::abs(v) * 0x1p-11f + p.scales().value_scale * 0x1p-24f)
-              << function.name;
-          double squares = 0, largest = 0;
-          for (int ty = y * size; ty < (y + 1) * size; ++ty)
-            for (int tx = x * size; tx < (x + 1) * size; ++tx) {
-              const double d = std::abs(double(function.grid.at(0, c, tx, ty)) - pv);
-              squares += d * d;
-              largest = std::max(largest, d);
-            }
-          const double rms = std::sqrt(squares / (double(size) * size));
-          ASSERT_LE(rms, double(p.bound(pn, c, pq)) * (1 + 1e-6)) << function.name;
-          ASSERT_LE(largest, double(p.largest_deviation_bound(pn, c, pq, level)) * (1 + 1e-6))
-              << function.name;
-          // Codes round up by at most one step of 2^-3 over the source bound and the move.
-          const double source = kind == BoundKind::l2
-                                    ? tree.deviations[std::size_t(node) * channels + c].lane[q]
-                                    : tree.view().error(node, c, q);
-          EXPECT_LE(p.bound(pn, c, pq),
-                    (source + std::abs(pv - v)) * 1.126 + p.scales().bound_scale * 0x1p-30)
-              << function.name;
+    for (const BoundKind kind : {BoundKind::l2, BoundKind::linf})
+      for (const bool exact : {false, true}) {
+        // With exact texels (a grid's texels are), texel nodes hold their values alone.
+        const PackedTree packed = exact ? pack_exact_texels(tree, kind) : pack(tree, kind);
+        const PackedTreeView p = packed.view();
+        ASSERT_EQ(p.node_count(), tree.node_count());
+        const PackedShape& shape = p.shape();
+        int full_nodes = 0;
+        for_each_node_depth(p, [&](int node, int depth) {
+          ASSERT_EQ(p.is_texel_node(node), exact && depth == shape.texel_depth()) << node;
+          full_nodes += !p.is_texel_node(node);
+        });
+        ASSERT_EQ(p.words().size(), std::size_t(full_nodes) * shape.words_per_node() +
+                                        std::size_t(p.node_count() - full_nodes) *
+                                            (exact ? 2 * channels : shape.words_per_node()));
+        // The same cells, breadth first: every leaf of one is a leaf of the other.
+        std::vector<std::array<int, 4>> cells_a, cells_b;
+        for_each_leaf(tree.view(), [&](int, int q, int level, int x, int y) {
+          cells_a.push_back({q, level, x, y});
+        });
+        std::vector<std::pair<int, int>> leaves;  // (node, quadrant) of p, in the same order
+        for_each_leaf(p, [&](int node, int q, int level, int x, int y) {
+          cells_b.push_back({q, level, x, y});
+          leaves.push_back({node, q});
+        });
+        ASSERT_EQ(cells_a, cells_b) << function.name;
+        // Breadth first: children follow their parent, blocks in order.
+        std::uint32_t next = 1;
+        for (int node = 0; node < p.node_count(); ++node) {
+          const std::uint32_t link = p.link(node);
+          if (link == 0) continue;
+          ASSERT_EQ(link >> 4, next);
+          next += std::uint32_t(std::popcount(link & 15u));
         }
-      });
-      EXPECT_NEAR(integrate(p, 0, 0), integrate(tree.view(), 0, 0),
-                  1e-3 * std::abs(integrate(tree.view(), 0, 0)) + 1e-9);
-    }
+        ASSERT_EQ(next, std::uint32_t(p.node_count()));
+        // Values within half precision of the tree's; bounds certified against the texels.
+        std::size_t leaf = 0;
+        for_each_leaf(tree.view(), [&](int node, int q, int level, int x, int y) {
+          const auto [pn, pq] = leaves[leaf++];
+          const int size = n >> level;
+          for (int c = 0; c < channels; ++c) {
+            const float v = tree.view().value(node, 0, c, q), pv = p.value(pn, 0, c, pq);
+            ASSERT_LE(std::abs(pv - v), std::abs(v) * 0x1p-11f + p.scales().value_scale * 0x1p-24f)
+                << function.name;
+            double squares = 0, largest = 0;
+            for (int ty = y * size; ty < (y + 1) * size; ++ty)
+              for (int tx = x * size; tx < (x + 1) * size; ++tx) {
+                const double d = std::abs(double(function.grid.at(0, c, tx, ty)) - pv);
+                squares += d * d;
+                largest = std::max(largest, d);
+              }
+            const double rms = std::sqrt(squares / (double(size) * size));
+            ASSERT_LE(rms, double(p.bound(pn, c, pq)) * (1 + 1e-6)) << function.name;
+            ASSERT_LE(largest, double(p.largest_deviation_bound(pn, c, pq, level)) * (1 + 1e-6))
+                << function.name;
+            // Codes round up by at most one step of 2^-3 over the source bound and the move; an
+            // exact texel's bound is the most its half may have moved.
+            if (p.is_texel_node(pn)) {
+              EXPECT_LE(p.bound(pn, c, pq),
+                        (std::abs(pv) * 0x1p-11 + p.scales().value_scale * 0x1p-25) * (1 + 1e-5));
+              continue;
+            }
+            const double source = kind == BoundKind::l2
+                                      ? tree.deviations[std::size_t(node) * channels + c].lane[q]
+                                      : tree.view().error(node, c, q);
+            EXPECT_LE(p.bound(pn, c, pq),
+                      (source + std::abs(pv - v)) * 1.126 + p.scales().bound_scale * 0x1p-30)
+                << function.name;
+          }
+        });
+        EXPECT_NEAR(integrate(p, 0, 0), integrate(tree.view(), 0, 0),
+                    1e-3 * std::abs(integrate(tree.view(), 0, 0)) + 1e-9);
+      }
   }
+}
+
+// Texel nodes of values alone are only for texels that are exact: a tree whose single-texel
+// quadrants carry a bound (a BRDF's variation inside a texel) is refused.
+TEST(PackedTrees, ExactTexelsAreRefusedForTexelsWithBounds) {
+  const auto functions = test_functions(8, 1, 22);
+  Quadtree tree = project(functions[1].grid, {.tolerance = 0});
+  EXPECT_NO_THROW(pack_exact_texels(tree));
+  bool changed = false;
+  for_each_leaf(tree.view(), [&](int node, int q, int level, int, int) {
+    if (level != 3 || changed) return;
+    tree.deviations[std::size_t(node) * tree.shape.error_stride()].lane[q] = 0.25f;
+    tree.errors[std::size_t(node) * tree.shape.error_stride()].lane[q] = 0.25f;
+    changed = true;
+  });
+  ASSERT_TRUE(changed);
+  EXPECT_THROW(pack_exact_texels(tree), std::invalid_argument);
+  EXPECT_THROW(pack_exact_texels(tree, BoundKind::linf), std::invalid_argument);
+  EXPECT_NO_THROW(pack(tree));
 }
 
 INSTANTIATE_TEST_SUITE_P(Shapes, PackedTrees,

@@ -288,7 +288,7 @@ CaptureSet capture_set(const Environment& environment, const RayScene* scene,
       } catch (const std::overflow_error& e) {
         throw FileError(environment.name() + ": radiance too large for captures: " + e.what());
       }
-      trees[i] = pack(tree, options.bounds);
+      trees[i] = pack_exact_texels(tree, options.bounds);
       const auto t2 = std::chrono::steady_clock::now();
       if (options.on_grid) options.on_grid(options.first_index + i, c.texels, lights[i]);
       capture_ns += std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - t0).count();

@@ -174,7 +174,7 @@ void RadianceCache::add_records(std::span<const Site> sites, const TaskControl& 
           for (int ch = 0; ch < 3; ++ch)
             relative.extra_mean[ch] += light.energy[ch] * light.direction.z() / std::numbers::pi;
         projector.project(c.texels, relative, tree);
-        m.tree = pack(tree, BoundKind::l2);
+        m.tree = pack_exact_texels(tree, BoundKind::l2);
       }
       clock_->projection += nanoseconds(since(t1));
     }

@@ -19,10 +19,11 @@ namespace basis {
 
 // The format version this build writes and the newest it reads. Version 2 added the capture
 // sets' directional lights, version 3 packed trees (packed_tree.h), version 4 bounds for more
-// than one channel group (the derivatives over the outgoing direction that tables hold).
-// Version 3 files load as they are; versions 1 and 2 too, their float trees packed on loading
-// with largest-deviation (linf) bounds.
-inline constexpr std::uint32_t kQtFormatVersion = 4;
+// than one channel group (the derivatives over the outgoing direction that tables hold),
+// version 5 texel nodes of values alone in trees with exact texels (captures) and extents in
+// words. Versions 3 to 5 load where they lie (the extents of 3 and 4 converted); versions 1 and
+// 2 too, their float trees packed on loading with largest-deviation (linf) bounds.
+inline constexpr std::uint32_t kQtFormatVersion = 5;
 
 // Limits checked before anything is allocated from a file's claims.
 inline constexpr std::uint64_t kQtMaxFileBytes = (std::uint64_t(1) << 31) - 1;  // FlatBuffers
@@ -84,9 +85,10 @@ class QtFile {
   // Checks one tree set of the buffer; `what` names it in errors.
   TreeSetView verify_tree_set(const void* set, const std::string& what,
                               ProjectionOptions* projection);
-  // Version 3: packed trees, checked where they lie.
+  // Versions 3 to 5: packed trees, checked where they lie (the extents of versions 3 and 4
+  // converted).
   TreeSetView verify_packed_trees(const void* set, const std::string& what,
-                                  const QuadtreeShape& shape) const;
+                                  const QuadtreeShape& shape);
   // Versions 1 and 2: float trees, checked and packed into converted_.
   TreeSetView verify_and_pack_float_trees(const void* set, const std::string& what,
                                           const QuadtreeShape& shape);
@@ -118,7 +120,8 @@ class QtFile {
   ProjectionOptions projection_;
   TreeSetView trees_;
   TreeSetView tilt_;
-  std::vector<TreeSet> converted_;  // trees of versions 1 and 2, packed
+  std::vector<TreeSet> converted_;                          // trees of versions 1 and 2, packed
+  std::vector<std::vector<TreeExtent>> converted_extents_;  // extents of versions 3 and 4
   int wo_resolution_ = 0;
   CaptureSetView captures_;
 };

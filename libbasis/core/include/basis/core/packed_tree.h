@@ -1,11 +1,16 @@
 // Packed quadtrees: the compact form in which tables and capture sets are stored, written to
 // files and looked up. Values are half floats scaled by a power of two per tree, bounds are
 // 8-bit codes rounded up so that they stay certified, and nodes lie breadth first with the
-// children of a node consecutive, so that one link word replaces four child indices.
+// children of a node consecutive, so that one link word replaces four child indices. In trees
+// with exact texels (captures: a texel is its own average), the nodes whose quadrants are
+// single texels hold their values alone: they have no children, and their bound is their
+// halves' rounding.
 #pragma once
 
 #include <array>
 #include <bit>
+#include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -28,10 +33,19 @@ struct PackedShape {
   int groups = 1;      // channel groups
   BoundKind bounds = BoundKind::l2;
   int bounded_groups = 1;  // groups 0 .. bounded_groups - 1 carry bounds (1..groups)
+  // Whether texel nodes (at depth texel_depth(), their quadrants single texels) hold only their
+  // values: texels are exact, up to their halves' rounding.
+  bool exact_texels = false;
 
   // 32-bit words per node: the link, the half-float values (groups x channels x 4 quadrants)
   // and the bound codes (bounded_groups x channels x 4 bytes).
   int words_per_node() const { return 1 + 2 * groups * channels + bounded_groups * channels; }
+  // 32-bit words per texel node: its values alone with exact texels, a node's otherwise.
+  int words_per_texel_node() const {
+    return exact_texels ? 2 * groups * channels : words_per_node();
+  }
+  // Depth of the nodes whose quadrants are single texels (the root's depth is 0).
+  int texel_depth() const { return std::countr_zero(unsigned(resolution)) - 1; }
   bool operator==(const PackedShape&) const = default;
 };
 
@@ -51,25 +65,56 @@ inline float bound_code_value(std::uint8_t c) {
   return std::bit_cast<float>((std::uint32_t(c) << 20) + kBoundCodeBias);
 }
 
+// How far a half-rounded value may lie from what it rounds, in units of its tree's value scale:
+// half an ulp, 2^-11 of the value, or half the subnormal spacing. An exact texel's bound.
+inline constexpr double kHalfRounding = 0x1p-11, kHalfSubnormalRounding = 0x1p-25;
+
+// Where node n of a tree lies, in 32-bit words from its first node, when its nodes from
+// texel_start on are texel nodes (breadth first, they come last).
+inline std::size_t packed_node_offset(const PackedShape& shape, std::size_t texel_start,
+                                      std::size_t n) {
+  const std::size_t full = std::size_t(shape.words_per_node());
+  if (n <= texel_start) return n * full;
+  return texel_start * full + (n - texel_start) * std::size_t(shape.words_per_texel_node());
+}
+
 // A non-owning view of a packed tree. Node 0 is the root. Word 0 of a node is its link: the
 // index of its first child shifted left by 4, or'ed with the mask of its refined quadrants (bit
 // q for quadrant q); 0 for a node without children. The children of the refined quadrants
-// follow one another in quadrant order, after every node of lower index's children.
+// follow one another in quadrant order, after every node of lower index's children. With
+// exact texels, nodes from texel_start on are texel nodes, values alone (no link word).
 class PackedTreeView {
  public:
   PackedTreeView() = default;
+  // A tree of full nodes only (texel_start = their count).
   PackedTreeView(PackedShape shape, TreeScales scales, std::span<const std::uint32_t> words)
-      : shape_(shape), scales_(scales), words_(words) {}
+      : PackedTreeView(shape, scales, words, words.size() / std::size_t(shape.words_per_node())) {}
+  PackedTreeView(PackedShape shape, TreeScales scales, std::span<const std::uint32_t> words,
+                 std::size_t texel_start)
+      : shape_(shape),
+        scales_(scales),
+        words_(words),
+        texel_start_(int(texel_start)),
+        node_count_(
+            int(texel_start + (words.size() - packed_node_offset(shape, texel_start, texel_start)) /
+                                  std::size_t(shape.words_per_texel_node()))) {}
 
   const PackedShape& shape() const { return shape_; }
   const TreeScales& scales() const { return scales_; }
   std::span<const std::uint32_t> words() const { return words_; }
-  int node_count() const { return int(words_.size() / shape_.words_per_node()); }
+  int node_count() const { return node_count_; }
+  // Nodes [texel_start(), node_count()) are texel nodes of values alone.
+  int texel_start() const { return texel_start_; }
+  bool is_texel_node(int n) const { return n >= texel_start_; }
   const std::uint32_t* node(int n) const {
-    return words_.data() + std::size_t(n) * shape_.words_per_node();
+    return words_.data() + packed_node_offset(shape_, std::size_t(texel_start_), std::size_t(n));
+  }
+  // The node's values: after its link, or from its first word in a texel node.
+  const std::uint16_t* halves(int n) const {
+    return reinterpret_cast<const std::uint16_t*>(node(n) + (is_texel_node(n) ? 0 : 1));
   }
 
-  std::uint32_t link(int n) const { return node(n)[0]; }
+  std::uint32_t link(int n) const { return is_texel_node(n) ? 0 : node(n)[0]; }
   // Child node of quadrant q of node n, 0 for a leaf quadrant.
   std::int32_t child(int n, int q) const {
     const std::uint32_t l = link(n);
@@ -78,18 +123,21 @@ class PackedTreeView {
   }
   // Value of group g, channel c over quadrant q of node n.
   float value(int n, int g, int c, int q) const {
-    return half_to_float(reinterpret_cast<const std::uint16_t*>(
-               node(n) + 1)[(g * shape_.channels + c) * 4 + q]) *
-           scales_.value_scale;
+    return half_to_float(halves(n)[(g * shape_.channels + c) * 4 + q]) * scales_.value_scale;
   }
   // Bound code and bound of group g (< bounded_groups), channel c over quadrant q of node n
-  // (see BoundKind); without a group, group 0's.
+  // (see BoundKind); without a group, group 0's. A texel node of exact texels has no codes: its
+  // bound is its value's rounding.
   std::uint8_t bound_code(int n, int g, int c, int q) const {
     return reinterpret_cast<const std::uint8_t*>(
         node(n) + 1 + 2 * shape_.groups * shape_.channels)[(g * shape_.channels + c) * 4 + q];
   }
   std::uint8_t bound_code(int n, int c, int q) const { return bound_code(n, 0, c, q); }
   float bound(int n, int g, int c, int q) const {
+    if (shape_.exact_texels && is_texel_node(n))
+      return float((kHalfRounding * std::abs(double(value(n, g, c, q))) +
+                    kHalfSubnormalRounding * double(scales_.value_scale)) *
+                   (1 + 0x1p-20));
     return bound_code_value(bound_code(n, g, c, q)) * scales_.bound_scale;
   }
   float bound(int n, int c, int q) const { return bound(n, 0, c, q); }
@@ -104,6 +152,7 @@ class PackedTreeView {
   PackedShape shape_;
   TreeScales scales_;
   std::span<const std::uint32_t> words_;
+  int texel_start_ = 0, node_count_ = 0;
 };
 
 // An owning packed tree.
@@ -111,9 +160,10 @@ struct PackedTree {
   PackedShape shape;
   TreeScales scales;
   std::vector<std::uint32_t> words;
+  std::size_t texel_start = 0;  // its first texel node (its node count when there are none)
 
-  PackedTreeView view() const { return {shape, scales, words}; }
-  int node_count() const { return int(words.size() / shape.words_per_node()); }
+  PackedTreeView view() const { return {shape, scales, words, texel_start}; }
+  int node_count() const { return view().node_count(); }
 };
 
 // The packed form of a tree: nodes breadth first, values rounded to the nearest half after
@@ -122,5 +172,9 @@ struct PackedTree {
 // linf from tree.errors. Bounds are kept for the first bounded_groups groups (at most the
 // tree's bounded groups; std::invalid_argument otherwise).
 PackedTree pack(const Quadtree& tree, BoundKind bounds = BoundKind::l2, int bounded_groups = 1);
+
+// The packed form of a tree whose texels are exact (a capture's: every single-texel quadrant's
+// bound is 0 in its source, std::invalid_argument otherwise): texel nodes hold values alone.
+PackedTree pack_exact_texels(const Quadtree& tree, BoundKind bounds = BoundKind::l2);
 
 }  // namespace basis

@@ -10,12 +10,19 @@
 
 namespace basis {
 
-// Where a tree's nodes sit in its set, nodes [first_node, first_node + node_count) with child
-// links relative to first_node, and its scales. 16 bytes, the layout of .qt files.
+// Where a tree's nodes sit in its set: node_count nodes from word first_word on, with child
+// links relative to its first node, its first texel node (node_count when it has none; see
+// PackedTreeView), and its scales. 20 bytes, the layout of .qt files.
 struct TreeExtent {
-  std::uint32_t first_node = 0;
+  std::uint32_t first_word = 0;
   std::uint32_t node_count = 0;
+  std::uint32_t texel_start = 0;
   TreeScales scales;
+
+  // The words it spans in a set of that shape.
+  std::size_t word_count(const PackedShape& shape) const {
+    return packed_node_offset(shape, texel_start, node_count);
+  }
 };
 
 // A non-owning view of a tree set.
@@ -23,30 +30,38 @@ class TreeSetView {
  public:
   TreeSetView() = default;
   TreeSetView(PackedShape shape, std::span<const TreeExtent> extents,
+              std::span<const std::uint32_t> words, std::size_t total_nodes)
+      : shape_(shape), extents_(extents), words_(words), total_nodes_(total_nodes) {}
+  // The set of those extents (their node counts summed).
+  TreeSetView(PackedShape shape, std::span<const TreeExtent> extents,
               std::span<const std::uint32_t> words)
-      : shape_(shape), extents_(extents), words_(words) {}
+      : TreeSetView(shape, extents, words, 0) {
+    for (const TreeExtent& e : extents)
+      total_nodes_ += e.node_count;
+  }
 
   const PackedShape& shape() const { return shape_; }
   std::size_t size() const { return extents_.size(); }
   PackedTreeView tree(std::size_t i) const {
     const TreeExtent& e = extents_[i];
-    const std::size_t w = std::size_t(shape_.words_per_node());
-    return {shape_, e.scales, words_.subspan(std::size_t(e.first_node) * w, e.node_count * w)};
+    return {shape_, e.scales, words_.subspan(e.first_word, e.word_count(shape_)), e.texel_start};
   }
   // Trees [first, first + count) of the set, over the same nodes (whose total_nodes() and
   // bytes() still count all of them).
   TreeSetView slice(std::size_t first, std::size_t count) const {
-    return {shape_, extents_.subspan(first, count), words_};
+    return {shape_, extents_.subspan(first, count), words_, total_nodes_};
   }
   std::span<const TreeExtent> extents() const { return extents_; }
   std::span<const std::uint32_t> words() const { return words_; }
-  std::size_t total_nodes() const { return words_.size() / std::size_t(shape_.words_per_node()); }
+  // Nodes of every tree (of the whole set, for a slice).
+  std::size_t total_nodes() const { return total_nodes_; }
   std::size_t bytes() const { return words_.size_bytes() + extents_.size_bytes(); }
 
  private:
   PackedShape shape_;
   std::span<const TreeExtent> extents_;
   std::span<const std::uint32_t> words_;
+  std::size_t total_nodes_ = 0;
 };
 
 // An owning tree set; trees are appended in order.
@@ -59,13 +74,14 @@ class TreeSet {
   void append(const PackedTreeView& tree);
   std::size_t size() const { return extents_.size(); }
   const PackedShape& shape() const { return shape_; }
-  TreeSetView view() const { return {shape_, extents_, words_}; }
+  TreeSetView view() const { return {shape_, extents_, words_, total_nodes_}; }
   PackedTreeView tree(std::size_t i) const { return view().tree(i); }
 
  private:
   PackedShape shape_;
   std::vector<TreeExtent> extents_;
   std::vector<std::uint32_t> words_;
+  std::size_t total_nodes_ = 0;
 };
 
 }  // namespace basis
