@@ -188,11 +188,15 @@ struct DescentConstants {
   const std::uint32_t* b;
   std::size_t words_a, words_b;
   std::size_t codes_a, codes_b;  // word offset of the bound codes in a node
-  // Texel nodes of exact texels (values alone, nodes from texel_start on): how many words each
-  // node before them has fewer, and the factor that brings their halves' rounding to bound
-  // units (value scale / bound scale, rounded up).
+  // Texel nodes of exact texels (values alone, nodes from texel_start on, all of the last level
+  // and only it): their depth (-1 for a tree without them), the words of one, where node n of
+  // them lies (texels_a + n x texel_words_a), and the factor that brings their halves' rounding
+  // to bound units (value scale / bound scale, rounded up).
   std::uint32_t texel_start_a, texel_start_b;
-  std::size_t texel_shrink_a, texel_shrink_b;
+  int texel_depth_a, texel_depth_b;
+  std::size_t texel_words_a, texel_words_b;
+  const std::uint32_t* texels_a;
+  const std::uint32_t* texels_b;
   float texel_bound_a, texel_bound_b;
   float value_scale, bound_scale;
   float values_in_bound_units, linf_a_scale, linf_b_scale;
@@ -218,8 +222,12 @@ struct DescentConstants {
         codes_b(1 + 2 * tb.shape().groups * CB),
         texel_start_a(std::uint32_t(ta.texel_start())),
         texel_start_b(std::uint32_t(tb.texel_start())),
-        texel_shrink_a(words_a - std::size_t(ta.shape().words_per_texel_node())),
-        texel_shrink_b(words_b - std::size_t(tb.shape().words_per_texel_node())),
+        texel_depth_a(ta.texel_start() < ta.node_count() ? ta.shape().texel_depth() : -1),
+        texel_depth_b(tb.texel_start() < tb.node_count() ? tb.shape().texel_depth() : -1),
+        texel_words_a(std::size_t(ta.shape().words_per_texel_node())),
+        texel_words_b(std::size_t(tb.shape().words_per_texel_node())),
+        texels_a(a + std::size_t(texel_start_a) * (words_a - texel_words_a)),
+        texels_b(b + std::size_t(texel_start_b) * (words_b - texel_words_b)),
         texel_bound_a(
             float(double(ta.scales().value_scale) / ta.scales().bound_scale * (1 + 0x1p-20))),
         texel_bound_b(
@@ -261,16 +269,14 @@ struct DescentConstants {
       allowed[c] = float(accuracy / 2 * (double(product) / 4) * values_in_bound_units);
     }
   }
+};
 
-  // The words of node n of a and of b.
-  const std::uint32_t* node_a(std::uint32_t n) const {
-    return a + std::size_t(n) * words_a -
-           std::size_t(std::max(n, texel_start_a) - texel_start_a) * texel_shrink_a;
-  }
-  const std::uint32_t* node_b(std::uint32_t n) const {
-    return b + std::size_t(n) * words_b -
-           std::size_t(std::max(n, texel_start_b) - texel_start_b) * texel_shrink_b;
-  }
+// Where the nodes of one level of a descent lie: node n of a at a + n x stride_a, of b likewise;
+// texel levels address the texel nodes.
+struct LevelNodes {
+  const std::uint32_t* a;
+  const std::uint32_t* b;
+  std::size_t stride_a, stride_b;
 };
 
 // The largest-deviation alternatives to the product term sa sb, in its units (see
@@ -584,63 +590,22 @@ class PackedDescent {
   Sums run(std::uint32_t root_a, std::uint32_t root_b, float quadrant_area, int depth) const {
     if (depth > kMaxTreeLevels) throw std::runtime_error("quadtree deeper than its resolution");
     Sums sums;
-    alignas(16) std::uint32_t ring[kRing][2];
-    unsigned head = 0, tail = 0, level_end = 0;
-    float area = quadrant_area;
-    std::uint32_t na = root_a, nb = root_b;
-    for (;;) {
-      const std::uint32_t* wa = k_.node_a(na);
-      const std::uint32_t* wb = k_.node_b(nb);
-      // Texel nodes of exact texels (values alone) have no children.
-      const bool texel_a = na >= k_.texel_start_a, texel_b = nb >= k_.texel_start_b;
-      const std::uint32_t la = texel_a ? 0 : wa[0], lb = texel_b ? 0 : wb[0];
-      unsigned internal;
+    Ring ring;
+    ring.pairs[0][0] = root_a;
+    ring.pairs[0][1] = root_b;
+    ring.tail = 1;
+    // Level by level: the texel nodes of exact texels (values alone, no children) are the last
+    // level's, so which kind of node a pair holds is known per level, not per pair.
+    for (float area = quadrant_area; ring.head != ring.tail; area *= 0.25f, ++depth) {
+      const bool texel_a = depth == k_.texel_depth_a, texel_b = depth == k_.texel_depth_b;
       if (!texel_a && !texel_b) [[likely]]
-        internal = Pairs::template visit<false, false>(k_, wa, wb, la & lb & 0xFu, area, sums);
+        run_level<false, false>(ring, area, depth, sums);
       else if (!texel_a)
-        internal = Pairs::template visit<false, true>(k_, wa, wb, 0, area, sums);
+        run_level<false, true>(ring, area, depth, sums);
       else if (!texel_b)
-        internal = Pairs::template visit<true, false>(k_, wa, wb, 0, area, sums);
+        run_level<true, false>(ring, area, depth, sums);
       else
-        internal = Pairs::template visit<true, true>(k_, wa, wb, 0, area, sums);
-      // Without a branch on the data (which no predictor learns): every quadrant's pair is
-      // written, the tail passes the internal ones.
-      if (tail - head > kRing - 4) [[unlikely]] {
-        // No room: descend this pair's internal quadrants now, each in a nested call.
-        for (unsigned q = 0; q < 4; ++q)
-          if (internal >> q & 1)
-            sums.add(run(first_child(la, q), first_child(lb, q), area * 0.25f, depth + 1));
-      } else {
-        {
-          const __m128i ca = _mm_add_epi32(_mm_set1_epi32(int(la >> 4)), child_offsets(la));
-          const __m128i cb = _mm_add_epi32(_mm_set1_epi32(int(lb >> 4)), child_offsets(lb));
-          const __m128i low = _mm_unpacklo_epi32(ca, cb), high = _mm_unpackhi_epi32(ca, cb);
-          // The children are read when their level comes: ask for them now, so that memory
-          // latency overlaps the rest of this level (prefetches never fault).
-          alignas(16) std::uint32_t children[4];
-          _mm_store_si128(reinterpret_cast<__m128i*>(children), cb);
-          for (unsigned q = 0; q < 4; ++q)
-            if (internal >> q & 1)
-              _mm_prefetch(reinterpret_cast<const char*>(k_.node_b(children[q])), _MM_HINT_T0);
-          auto slot = [&] { return reinterpret_cast<__m128i*>(&ring[tail & kMask]); };
-          _mm_storel_epi64(slot(), low);
-          tail += internal & 1;
-          _mm_storel_epi64(slot(), _mm_srli_si128(low, 8));
-          tail += internal >> 1 & 1;
-          _mm_storel_epi64(slot(), high);
-          tail += internal >> 2 & 1;
-          _mm_storel_epi64(slot(), _mm_srli_si128(high, 8));
-          tail += internal >> 3 & 1;
-        }
-      }
-      if (head == tail) break;
-      if (head == level_end) {  // the next level starts: quadrants are a quarter the size
-        area *= 0.25f;
-        level_end = tail;
-      }
-      na = ring[head & kMask][0];
-      nb = ring[head & kMask][1];
-      ++head;
+        run_level<true, true>(ring, area, depth, sums);
     }
     return sums;
   }
@@ -649,6 +614,71 @@ class PackedDescent {
 
  private:
   static constexpr unsigned kRing = 256, kMask = kRing - 1;
+
+  // Pairs of nodes (of a, of b) waiting, first in, first out: [head, tail) modulo kRing.
+  struct Ring {
+    alignas(16) std::uint32_t pairs[kRing][2];
+    unsigned head = 0, tail = 0;
+  };
+
+  LevelNodes level_nodes(int depth) const {
+    const bool texel_a = depth == k_.texel_depth_a, texel_b = depth == k_.texel_depth_b;
+    return {texel_a ? k_.texels_a : k_.a, texel_b ? k_.texels_b : k_.b,
+            texel_a ? k_.texel_words_a : k_.words_a, texel_b ? k_.texel_words_b : k_.words_b};
+  }
+
+  // Visits the pairs of one level (those in the ring when it starts), queueing the pairs of
+  // their internal quadrants for the next. kTexelA, kTexelB: the level's nodes of a, of b, are
+  // texel nodes.
+  template <bool kTexelA, bool kTexelB>
+  void run_level(Ring& ring, float area, int depth, Sums& sums) const {
+    const LevelNodes nodes = level_nodes(depth), children_nodes = level_nodes(depth + 1);
+    for (const unsigned level_end = ring.tail; ring.head != level_end;) {
+      const std::uint32_t na = ring.pairs[ring.head & kMask][0];
+      const std::uint32_t nb = ring.pairs[ring.head & kMask][1];
+      ++ring.head;
+      const std::uint32_t* wa = nodes.a + std::size_t(na) * nodes.stride_a;
+      const std::uint32_t* wb = nodes.b + std::size_t(nb) * nodes.stride_b;
+      if constexpr (kTexelA || kTexelB) {
+        // A texel node has no children: nothing goes on.
+        Pairs::template visit<kTexelA, kTexelB>(k_, wa, wb, 0, area, sums);
+        continue;
+      }
+      const std::uint32_t la = wa[0], lb = wb[0];
+      const unsigned internal =
+          Pairs::template visit<false, false>(k_, wa, wb, la & lb & 0xFu, area, sums);
+      // Without a branch on the data (which no predictor learns): every quadrant's pair is
+      // written, the tail passes the internal ones.
+      if (ring.tail - ring.head > kRing - 4) [[unlikely]] {
+        // No room: descend this pair's internal quadrants now, each in a nested call.
+        for (unsigned q = 0; q < 4; ++q)
+          if (internal >> q & 1)
+            sums.add(run(first_child(la, q), first_child(lb, q), area * 0.25f, depth + 1));
+        continue;
+      }
+      const __m128i ca = _mm_add_epi32(_mm_set1_epi32(int(la >> 4)), child_offsets(la));
+      const __m128i cb = _mm_add_epi32(_mm_set1_epi32(int(lb >> 4)), child_offsets(lb));
+      const __m128i low = _mm_unpacklo_epi32(ca, cb), high = _mm_unpackhi_epi32(ca, cb);
+      // The children are read when their level comes: ask for them now, so that memory
+      // latency overlaps the rest of this level (prefetches never fault).
+      alignas(16) std::uint32_t children[4];
+      _mm_store_si128(reinterpret_cast<__m128i*>(children), cb);
+      for (unsigned q = 0; q < 4; ++q)
+        if (internal >> q & 1)
+          _mm_prefetch(reinterpret_cast<const char*>(
+                           children_nodes.b + std::size_t(children[q]) * children_nodes.stride_b),
+                       _MM_HINT_T0);
+      auto slot = [&] { return reinterpret_cast<__m128i*>(&ring.pairs[ring.tail & kMask]); };
+      _mm_storel_epi64(slot(), low);
+      ring.tail += internal & 1;
+      _mm_storel_epi64(slot(), _mm_srli_si128(low, 8));
+      ring.tail += internal >> 1 & 1;
+      _mm_storel_epi64(slot(), high);
+      ring.tail += internal >> 2 & 1;
+      _mm_storel_epi64(slot(), _mm_srli_si128(high, 8));
+      ring.tail += internal >> 3 & 1;
+    }
+  }
 
   static std::uint32_t first_child(std::uint32_t link, unsigned q) {
     return (link >> 4) + kChildOffsets[link & 15u][q];
