@@ -239,5 +239,37 @@ TEST(PackedConvolution, WeightedGroupsOfOneGroupScaleThePlainConvolution) {
   EXPECT_THROW(convolve_weighted(a.view(), two, b.view()), std::invalid_argument);
 }
 
+// Trees refined everywhere (noise at tolerance 0): a level of 128^2 or 256^2 pairs holds more
+// pairs than the descent queues at once, and the pairs that do not fit are descended apart. The
+// result is still the dense product of the texels, in SIMD and scalar.
+TEST(PackedConvolution, LevelsLargerThanTheQueueAreDescendedInFull) {
+  for (const int n : {128, 256}) {
+    std::mt19937 rng{std::uint32_t(n)};
+    std::uniform_real_distribution<float> unit(0.1f, 2);
+    Grid grid_a(n, 3), grid_b(n, 3);
+    for (float& t : grid_a.texels)
+      t = unit(rng);
+    for (float& t : grid_b.texels)
+      t = unit(rng);
+    const PackedTree a = pack(project(grid_a, {.tolerance = 0}), BoundKind::l2);
+    const PackedTree b = pack_exact_texels(project(grid_b, {.tolerance = 0}), BoundKind::linf);
+    ASSERT_EQ(a.view().node_count(), (n * n - 1) / 3) << n;
+    const Convolution simd = convolve(a.view(), b.view());
+    const Convolution scalar = convolve_scalar(a.view(), b.view());
+    for (int c = 0; c < 3; ++c) {
+      double texels = 0;
+      for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x)
+          texels += double(grid_a.at(0, c, x, y)) * grid_b.at(0, c, x, y);
+      texels /= double(n) * n;
+      EXPECT_LE(std::abs(simd.value[c] - texels), simd.bound[c] * (1 + 1e-4)) << n;
+      EXPECT_LT(relative_gap(simd.value[c], texels), 1e-3) << n;
+      // Float sums of up to 65,536 products against double ones.
+      EXPECT_LT(relative_gap(simd.value[c], scalar.value[c]), 1e-5) << n;
+      EXPECT_LT(relative_gap(simd.bound[c], scalar.bound[c]), 1e-5) << n;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace basis
