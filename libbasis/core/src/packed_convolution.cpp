@@ -40,7 +40,7 @@ constexpr double kRoundingPerMagnitude = 2 * kHalfRounding, kRoundingFloor = 0x1
 class WeightedTree {
  public:
   WeightedTree(const PackedTreeView& tree, std::span<const float> weights) : tree_(tree) {
-    count_ = weights.empty() ? 1 : int(weights.size());
+    count_ = weights.empty() ? 1 : std::min(3, int(weights.size()));
     for (int g = 0; g < count_; ++g) {
       weight_[g] = weights.empty() ? 1.0 : double(weights[g]);
       total_weight_ += std::abs(weight_[g]);
