@@ -613,9 +613,10 @@ class PackedDescent {
   const DescentConstants<CA, CB>& constants() const { return k_; }
 
  private:
-  // Room for two of a real lookup's widest levels (up to about 600 pairs each at 128^2): a
-  // pair that finds the ring full descends apart, in nested calls, and at 256 pairs that cost a
-  // GGX lookup a fifth of its time.
+  // Room for two of a real lookup's widest levels (at 128^2, on average about 300 pairs each
+  // for the main job's GGX entries, 600-800 against the forest's captures): a pair that finds
+  // the ring full descends apart, in nested calls, and at 256 pairs that cost a GGX lookup a
+  // fifth of its time.
   static constexpr unsigned kRing = 2048, kMask = kRing - 1;
 
   // Pairs of nodes (of a, of b) waiting, first in, first out: [head, tail) modulo kRing.
