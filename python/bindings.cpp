@@ -244,7 +244,10 @@ PYBIND11_MODULE(basis, m) {
             return a;
           },
           "The texel nodes of a tree with exact texels (a capture's), nodes texel_start on, "
-          "without a copy: their half values alone (empty for other trees).")
+          "without a copy: their values alone, a shared-exponent word per texel in RGB trees "
+          "(9-bit "
+          "mantissas, bits 0-26, and a 5-bit exponent, bits 27-31), halves otherwise (empty for "
+          "trees without exact texels).")
       .def(
           "reconstruct", [](const Tree& t) { return grid_array(reconstruct(t.view)); },
           "The piecewise-constant function at full resolution: float32 (groups, channels, N, N).")

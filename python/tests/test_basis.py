@@ -126,9 +126,9 @@ def test_files_written_here_are_read_by_the_tools(made_by_tools, tmp_path):
     for k in range(len(POINTS)):
         assert np.array_equal(captures.tree(k).words, tool_captures.tree(k).words)
         assert np.array_equal(captures.tree(k).texel_words, tool_captures.tree(k).texel_words)
-        # Captures' texels are exact: their texel nodes hold 3 channels' 4 halves alone.
+        # Captures' texels are exact: their texel nodes hold a shared-exponent word per texel.
         tree = captures.tree(k)
-        assert tree.texel_words.shape == (tree.node_count - tree.texel_start, 6)
+        assert tree.texel_words.shape == (tree.node_count - tree.texel_start, 4)
     # The tools' full-resolution reference reads the recipe written here.
     tool("qtconvolve", tmp_path / "t.qt", tmp_path / "c.qt", "--reference", "-q")
 

@@ -65,7 +65,7 @@ class WeightedTree {
   double magnitude(int n, int c, int q) const {
     double m = 0;
     for (int k = 0; k < count_; ++k)
-      m += std::abs(weight_[k] * tree_.value(n, k, c, q));
+      m += std::abs(weight_[k]) * tree_.rounding_magnitude(n, k, c, q);
     return m;
   }
   double total_weight() const { return total_weight_; }
@@ -85,27 +85,27 @@ class WeightedTree {
 // the first term at most min(sa sb, [a linf] ea (|b| + db) + |b| da, [b linf] likewise; the
 // largest-deviation terms hold for B >= 0 and A >= 0 respectively), the
 // rounding terms kRoundingPerMagnitude |a b| here and kRoundingFloor (times the value scales)
-// once for the whole descent. For weighted groups |a| is their magnitude (WeightedTree).
+// once for the whole descent. For weighted groups |a| is their magnitude (WeightedTree); for
+// shared-exponent texels, |a| and |b| are their rounding magnitudes (PackedTreeView).
 auto packed_pair_bound(const WeightedTree& a, const PackedTreeView& b, double value_scale_a) {
   const bool linf_a = a.shape().bounds == BoundKind::linf;
   const bool linf_b = b.shape().bounds == BoundKind::linf;
   const double floor_a = kHalfSubnormalRounding * value_scale_a * a.total_weight();
-  return
-      [&a, &b, linf_a, linf_b, floor_a](int na, int nb, int ca, int cb, int q, double, double vb) {
-        const double sa = a.bound(na, ca, q), sb = b.bound(nb, cb, q);
-        const double abs_a = a.magnitude(na, ca, q);
-        const double da = kHalfRounding * abs_a + floor_a;
-        const double db =
-            kHalfRounding * std::abs(vb) + kHalfSubnormalRounding * b.scales().value_scale;
-        double product = sa * sb;
-        if (linf_a) product = std::min(product, sa * (std::abs(vb) + db) + std::abs(vb) * da);
-        // eb |a| bounds the integral of A (B - b) for A >= 0; a combination of groups may be
-        // negative, and then eb (|a| + sa) does (the mean of |A| is at most |a| plus A's RMS
-        // deviation from a).
-        if (linf_b)
-          product = std::min(product, sb * (abs_a + da + (a.combined() ? sa : 0)) + abs_a * db);
-        return product + kRoundingPerMagnitude * abs_a * std::abs(vb);
-      };
+  return [&a, &b, linf_a, linf_b, floor_a](int na, int nb, int ca, int cb, int q, double, double) {
+    const double sa = a.bound(na, ca, q), sb = b.bound(nb, cb, q);
+    const double abs_a = a.magnitude(na, ca, q);
+    const double abs_b = b.rounding_magnitude(nb, 0, cb, q);  // |vb|, for halves
+    const double da = kHalfRounding * abs_a + floor_a;
+    const double db = kHalfRounding * abs_b + kHalfSubnormalRounding * b.scales().value_scale;
+    double product = sa * sb;
+    if (linf_a) product = std::min(product, sa * (abs_b + db) + abs_b * da);
+    // eb |a| bounds the integral of A (B - b) for A >= 0; a combination of groups may be
+    // negative, and then eb (|a| + sa) does (the mean of |A| is at most |a| plus A's RMS
+    // deviation from a).
+    if (linf_b)
+      product = std::min(product, sb * (abs_a + da + (a.combined() ? sa : 0)) + abs_a * db);
+    return product + kRoundingPerMagnitude * abs_a * abs_b;
+  };
 }
 
 GroupConvolution scalar(const PackedTreeView& a, const PackedTreeView& b, int groups,
@@ -173,6 +173,24 @@ inline __m128 load_bound_codes(const std::uint32_t* p) {
       _mm_add_epi32(_mm_slli_epi32(codes, 20), _mm_set1_epi32(int(kBoundCodeBias))));
 }
 
+// The steps of four shared-exponent words (shared_exponent.h): 2^(exponent - 24) each.
+inline __m128 shared_steps(__m128i words) {
+  const __m128i exponents = _mm_srli_epi32(words, 27);
+  return _mm_castsi128_ps(
+      _mm_slli_epi32(_mm_add_epi32(exponents, _mm_set1_epi32(127 - kSharedExponentBias)), 23));
+}
+
+// Channel c of four shared-exponent words whose steps are given.
+inline __m128 shared_channel(__m128i words, int c, __m128 steps) {
+  const __m128i mantissas = _mm_and_si128(
+      _mm_srl_epi32(words, _mm_cvtsi32_si128(kSharedMantissaBits * c)), _mm_set1_epi32(511));
+  return _mm_mul_ps(_mm_cvtepi32_ps(mantissas), steps);
+}
+
+// A shared-exponent texel's rounding magnitude (PackedTreeView::rounding_magnitude) from its
+// value and step: at least half the step over kHalfRounding.
+constexpr float kSharedStepMagnitude = float(0.5 / kHalfRounding);
+
 inline float lane_sum(__m128 v) {
   const __m128 pairs = _mm_add_ps(v, _mm_movehl_ps(v, v));
   return _mm_cvtss_f32(_mm_add_ss(pairs, _mm_shuffle_ps(pairs, pairs, 1)));
@@ -198,6 +216,10 @@ struct DescentConstants {
   const std::uint32_t* texels_a;
   const std::uint32_t* texels_b;
   float texel_bound_a, texel_bound_b;
+  // Whether those texel nodes hold shared-exponent words (RGB, one group), and the factor that
+  // brings a word's step to its bound, half the step, in bound units.
+  bool shared_a, shared_b;
+  float shared_bound_a, shared_bound_b;
   float value_scale, bound_scale;
   float values_in_bound_units, linf_a_scale, linf_b_scale;
   // Weighted descents: a stands for sum_g weight[g] a_g; total_weight = sum_g |weight[g]|.
@@ -232,6 +254,10 @@ struct DescentConstants {
             float(double(ta.scales().value_scale) / ta.scales().bound_scale * (1 + 0x1p-20))),
         texel_bound_b(
             float(double(tb.scales().value_scale) / tb.scales().bound_scale * (1 + 0x1p-20))),
+        shared_a(CA == 3 && ta.shape().shared_texels()),
+        shared_b(CB == 3 && tb.shape().shared_texels()),
+        shared_bound_a(texel_bound_a * 0.5f),
+        shared_bound_b(texel_bound_b * 0.5f),
         targeted(accuracy > 0) {
     if (!weights.empty()) {
       combined = weights.size() > 1;
@@ -255,18 +281,16 @@ struct DescentConstants {
     per_product = float((accuracy / 2 - kRoundingPerMagnitude) * values_in_bound_units);
     per_value = float(accuracy / 2 * values_in_bound_units);
     per_magnitude = float(kRoundingPerMagnitude * values_in_bound_units);
-    // A root that is a texel node (a tree of 2 x 2 texels) holds values from its first word.
-    const std::uint32_t* values_a = a + (texel_start_a == 0 ? 0 : 1);
-    const std::uint32_t* values_b = b + (texel_start_b == 0 ? 0 : 1);
+    // The roots' product E, from their values (scaled, so in units of value_scale).
     for (int c = 0; c < C; ++c) {
-      __m128 root_a = _mm_setzero_ps();
-      for (int g = 0; g < (weights.empty() ? 1 : int(weights.size())); ++g)
-        root_a = _mm_add_ps(root_a,
-                            _mm_mul_ps(_mm_set1_ps(weight[g]),
-                                       load_halves(values_a + 2 * (g * CA + (CA == 1 ? 0 : c)))));
-      const float product =
-          lane_sum(abs_ps(_mm_mul_ps(root_a, load_halves(values_b + 2 * (CB == 1 ? 0 : c)))));
-      allowed[c] = float(accuracy / 2 * (double(product) / 4) * values_in_bound_units);
+      double product = 0;
+      for (int q = 0; q < 4; ++q) {
+        double root_a = 0;
+        for (int g = 0; g < (weights.empty() ? 1 : int(weights.size())); ++g)
+          root_a += double(weight[g]) * ta.value(0, g, CA == 1 ? 0 : c, q);
+        product += std::abs(root_a * tb.value(0, 0, CB == 1 ? 0 : c, q));
+      }
+      allowed[c] = float(accuracy / 2 * (product / 4) / value_scale * values_in_bound_units);
     }
   }
 };
@@ -354,11 +378,28 @@ struct NarrowPairs {
                         const std::uint32_t* wb, unsigned internal, float area, Sums& sums) {
     const std::uint32_t* values_a = wa + (kTexelA ? 0 : 1);
     const std::uint32_t* values_b = wb + (kTexelB ? 0 : 1);
+    // Shared-exponent texel nodes: a word per quadrant, the channels unpacked below.
+    const bool shared_a = kTexelA && CA == 3 && GW == 1 && k.shared_a;
+    const bool shared_b = kTexelB && CB == 3 && k.shared_b;
+    __m128i words_a = _mm_setzero_si128(), words_b = _mm_setzero_si128();
+    __m128 steps_a = _mm_setzero_ps(), steps_b = _mm_setzero_ps();
+    if (shared_a) {
+      words_a = _mm_loadu_si128(reinterpret_cast<const __m128i*>(values_a));
+      steps_a = shared_steps(words_a);
+    }
+    if (shared_b) {
+      words_b = _mm_loadu_si128(reinterpret_cast<const __m128i*>(values_b));
+      steps_b = shared_steps(words_b);
+    }
     __m128 vb[C], product[C], magnitude[C], term[C];
     for (int c = 0; c < C; ++c) {
       const int ca = CA == 1 ? 0 : c;
       __m128 va, abs_a, sa;
-      if constexpr (GW == 1) {
+      if (shared_a) {
+        va = shared_channel(words_a, ca, steps_a);
+        abs_a = _mm_max_ps(va, _mm_mul_ps(steps_a, _mm_set1_ps(kSharedStepMagnitude)));
+        sa = _mm_mul_ps(steps_a, _mm_set1_ps(k.shared_bound_a));
+      } else if constexpr (GW == 1) {
         va = load_halves(values_a + 2 * ca);
         abs_a = abs_ps(va);
         if constexpr (kTexelA)
@@ -377,17 +418,24 @@ struct NarrowPairs {
         }
         if constexpr (kTexelA) sa = texel_bounds(abs_a, k.total_weight, k.texel_bound_a);
       }
-      vb[c] = load_halves(values_b + 2 * (CB == 1 ? 0 : c));
+      __m128 sb, abs_b;
+      if (shared_b) {
+        vb[c] = shared_channel(words_b, c, steps_b);
+        abs_b = _mm_max_ps(vb[c], _mm_mul_ps(steps_b, _mm_set1_ps(kSharedStepMagnitude)));
+        sb = _mm_mul_ps(steps_b, _mm_set1_ps(k.shared_bound_b));
+      } else {
+        vb[c] = load_halves(values_b + 2 * (CB == 1 ? 0 : c));
+        abs_b = abs_ps(vb[c]);
+        if constexpr (kTexelB)
+          sb = texel_bounds(abs_b, 1, k.texel_bound_b);
+        else
+          sb = load_bound_codes(wb + k.codes_b + (CB == 1 ? 0 : c));
+      }
       product[c] = _mm_mul_ps(va, vb[c]);
-      magnitude[c] = _mm_mul_ps(abs_a, abs_ps(vb[c]));
-      __m128 sb;
-      if constexpr (kTexelB)
-        sb = texel_bounds(abs_ps(vb[c]), 1, k.texel_bound_b);
-      else
-        sb = load_bound_codes(wb + k.codes_b + (CB == 1 ? 0 : c));
+      magnitude[c] = _mm_mul_ps(abs_a, abs_b);
       term[c] = _mm_mul_ps(sa, sb);
       if constexpr (kLinfA || kLinfB)
-        term[c] = linf_terms<kLinfA, kLinfB>(k, term[c], sa, sb, abs_a, vb[c]);
+        term[c] = linf_terms<kLinfA, kLinfB>(k, term[c], sa, sb, abs_a, abs_b);
     }
     if (k.targeted) {
       __m128 enough = _mm_castsi128_ps(_mm_set1_epi32(-1));
@@ -497,6 +545,23 @@ struct WidePairs {
         _mm512_set1_epi32(int(kBoundCodeBias))));
   }
 
+  // Four shared-exponent words at w as 12 lanes (channel c of word q in lane 4c + q), and their
+  // steps in the same lanes. (Masked forms throughout: the unmasked ones start from undefined
+  // registers, which GCC 12 warns of.)
+  static __m512 shared_values(const std::uint32_t* w, __m512& steps) {
+    const __m512i words =
+        _mm512_maskz_broadcast_i32x4(0xffff, _mm_loadu_si128(reinterpret_cast<const __m128i*>(w)));
+    const __m512i exponents = _mm512_maskz_srli_epi32(0xffff, words, 27);
+    steps = _mm512_castsi512_ps(_mm512_maskz_slli_epi32(
+        0xffff, _mm512_add_epi32(exponents, _mm512_set1_epi32(127 - kSharedExponentBias)), 23));
+    const int m = kSharedMantissaBits;
+    const __m512i shifts =
+        _mm512_setr_epi32(0, 0, 0, 0, m, m, m, m, 2 * m, 2 * m, 2 * m, 2 * m, 0, 0, 0, 0);
+    const __m512i mantissas = _mm512_maskz_and_epi32(
+        kLanes, _mm512_maskz_srlv_epi32(0xffff, words, shifts), _mm512_set1_epi32(511));
+    return _mm512_mul_ps(_mm512_maskz_cvtepi32_ps(0xffff, mantissas), steps);
+  }
+
   // The bound of exact texels of magnitude m (see NarrowPairs::texel_bounds).
   static __m512 texel_bounds(__m512 m, float total_weight, float scale) {
     return _mm512_mul_ps(
@@ -510,8 +575,14 @@ struct WidePairs {
                         const std::uint32_t* wb, unsigned internal, float area, Sums& sums) {
     const std::uint32_t* values_a = wa + (kTexelA ? 0 : 1);
     const std::uint32_t* values_b = wb + (kTexelB ? 0 : 1);
+    const __m512 step_magnitude = _mm512_set1_ps(kSharedStepMagnitude);
     __m512 va, abs_a, sa;
-    if constexpr (GW == 1) {
+    if (kTexelA && CA == 3 && GW == 1 && k.shared_a) {  // shared-exponent texels
+      __m512 steps;
+      va = shared_values(values_a, steps);
+      abs_a = _mm512_maskz_max_ps(0xffff, va, _mm512_mul_ps(steps, step_magnitude));
+      sa = _mm512_mul_ps(steps, _mm512_set1_ps(k.shared_bound_a));
+    } else if constexpr (GW == 1) {
       va = values(values_a, CA, 0);
       abs_a = abs512(va);
       if constexpr (kTexelA)
@@ -530,15 +601,24 @@ struct WidePairs {
       }
       if constexpr (kTexelA) sa = texel_bounds(abs_a, k.total_weight, k.texel_bound_a);
     }
-    const __m512 vb = values(values_b, CB, 0);
+    __m512 vb, abs_b, sb;
+    if (kTexelB && CB == 3 && k.shared_b) {  // shared-exponent texels
+      __m512 steps;
+      vb = shared_values(values_b, steps);
+      abs_b = _mm512_maskz_max_ps(0xffff, vb, _mm512_mul_ps(steps, step_magnitude));
+      sb = _mm512_mul_ps(steps, _mm512_set1_ps(k.shared_bound_b));
+    } else {
+      vb = values(values_b, CB, 0);
+      abs_b = abs512(vb);
+      if constexpr (kTexelB)
+        sb = texel_bounds(abs_b, 1, k.texel_bound_b);
+      else
+        sb = bounds(wb, CB, k.codes_b);
+    }
     const __m512 product = _mm512_mul_ps(va, vb);
-    __m512 sb;
-    if constexpr (kTexelB)
-      sb = texel_bounds(abs512(vb), 1, k.texel_bound_b);
-    else
-      sb = bounds(wb, CB, k.codes_b);
     __m512 term = _mm512_mul_ps(sa, sb);
-    if constexpr (kLinfA || kLinfB) term = linf_terms<kLinfA, kLinfB>(k, term, sa, sb, abs_a, vb);
+    if constexpr (kLinfA || kLinfB)
+      term = linf_terms<kLinfA, kLinfB>(k, term, sa, sb, abs_a, abs_b);
     if (k.targeted) {
       __m512 per_pair;
       if constexpr (GW == 1)
@@ -546,7 +626,7 @@ struct WidePairs {
       else  // the rounding scales with the groups' magnitude, not with the combined product
         per_pair = _mm512_sub_ps(
             _mm512_mul_ps(_mm512_set1_ps(k.per_value), abs512(product)),
-            _mm512_mul_ps(_mm512_set1_ps(k.per_magnitude), _mm512_mul_ps(abs_a, abs512(vb))));
+            _mm512_mul_ps(_mm512_set1_ps(k.per_magnitude), _mm512_mul_ps(abs_a, abs_b)));
       const __m512 allowed = _mm512_add_ps(
           per_pair,
           _mm512_setr_ps(k.allowed[0], k.allowed[0], k.allowed[0], k.allowed[0], k.allowed[1],
@@ -566,7 +646,7 @@ struct WidePairs {
                              _mm512_mul_ps(_mm512_mul_ps(values(values_a, CA, g), vb), area_v));
     sums.bound = _mm512_mask_add_ps(sums.bound, stop, sums.bound, _mm512_mul_ps(term, area_v));
     sums.magnitude = _mm512_mask_add_ps(sums.magnitude, stop, sums.magnitude,
-                                        _mm512_mul_ps(_mm512_mul_ps(abs_a, abs512(vb)), area_v));
+                                        _mm512_mul_ps(_mm512_mul_ps(abs_a, abs_b), area_v));
     return internal;
   }
 };

@@ -19,8 +19,8 @@ float PackedTreeView::largest_deviation_bound(int n, int g, int c, int q, int le
 
 namespace {
 
-PackedTree pack_tree(const Quadtree& tree, BoundKind bounds, int bounded_groups,
-                     bool exact_texels) {
+PackedTree pack_tree(const Quadtree& tree, BoundKind bounds, int bounded_groups, bool exact_texels,
+                     TexelEncoding encoding) {
   const QuadtreeView source = tree.view();
   const QuadtreeShape& s = tree.shape;
   if (bounded_groups < 1 || bounded_groups > s.bounded_groups)
@@ -29,6 +29,7 @@ PackedTree pack_tree(const Quadtree& tree, BoundKind bounds, int bounded_groups,
                                 std::to_string(s.bounded_groups));
   PackedTree out;
   out.shape = {s.resolution, s.channels, s.groups, bounds, bounded_groups, exact_texels};
+  if (exact_texels && s.channels == 3 && s.groups == 1) out.shape.texel_encoding = encoding;
   const int count = source.node_count();
   const bool have_deviations = !tree.deviations.empty();
   auto source_bound = [&](int node, int g, int c, int q) -> double {
@@ -119,6 +120,19 @@ PackedTree pack_tree(const Quadtree& tree, BoundKind bounds, int bounded_groups,
   for (std::size_t i = 0; i < order.size(); ++i) {
     const int n = order[i];
     std::uint32_t* w = out.words.data() + packed_node_offset(out.shape, out.texel_start, i);
+    if (i >= out.texel_start && out.shape.shared_texels()) {  // a word per texel
+      for (int q = 0; q < 4; ++q) {
+        std::array<float, 3> rgb;
+        for (int c = 0; c < 3; ++c)
+          rgb[std::size_t(c)] = float(double(source.value(n, 0, c, q)) / value_scale);
+        if (!(rgb[0] >= 0 && rgb[1] >= 0 && rgb[2] >= 0))
+          throw std::invalid_argument("shared-exponent texels must be >= 0, a texel is (" +
+                                      std::to_string(rgb[0]) + ", " + std::to_string(rgb[1]) +
+                                      ", " + std::to_string(rgb[2]) + ")");
+        w[q] = encode_shared_exponent(rgb);
+      }
+      continue;
+    }
     if (i >= out.texel_start) {  // a texel node: values alone
       std::memcpy(w, halves.data() + std::size_t(n) * values_per_node,
                   values_per_node * sizeof(std::uint16_t));
@@ -144,11 +158,11 @@ PackedTree pack_tree(const Quadtree& tree, BoundKind bounds, int bounded_groups,
 }  // namespace
 
 PackedTree pack(const Quadtree& tree, BoundKind bounds, int bounded_groups) {
-  return pack_tree(tree, bounds, bounded_groups, false);
+  return pack_tree(tree, bounds, bounded_groups, false, TexelEncoding::halves);
 }
 
-PackedTree pack_exact_texels(const Quadtree& tree, BoundKind bounds) {
-  return pack_tree(tree, bounds, 1, true);
+PackedTree pack_exact_texels(const Quadtree& tree, BoundKind bounds, TexelEncoding encoding) {
+  return pack_tree(tree, bounds, 1, true, encoding);
 }
 
 }  // namespace basis

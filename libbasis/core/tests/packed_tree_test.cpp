@@ -1,11 +1,15 @@
-// Half floats against the processor's own conversion; packed trees: the same topology, values
+// Half floats against the processor's own conversion; shared-exponent words against a search
+// over every exponent; packed trees: the same topology, values
 // within half precision, and bounds that still hold for every texel (linf) and every quadrant's
 // RMS deviation (l2) after rounding.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <random>
+#include <stdexcept>
 
 #if defined(__F16C__)
 #include <immintrin.h>
@@ -72,6 +76,50 @@ TEST(Half, RoundsToNearestEven) {
   }
 }
 
+// Shared-exponent words against a search over every exponent, from the smallest, for the first
+// whose step keeps each channel's nearest multiple (in exact double arithmetic) within 9 bits;
+// decoded channels within half a step, and the step within 1 / 255.75 of the largest channel
+// (2^-8 unless the largest rounds up to 512).
+TEST(SharedExponent, TheSmallestExponentThatFitsAndTheNearestMantissas) {
+  std::mt19937 rng(5);
+  std::vector<std::array<float, 3>> colours = {
+      {0, 0, 0},           {1, 1, 1},          {0x1.ffp14f, 0, 0}, {0, 0x1.fffp14f, 1e-20f},
+      {511.5f, 255, 0},    {511.4f, 0, 3},     {0x1p-24f, 0, 0},   {0x1p-25f, 0x1.8p-25f, 0},
+      {1e-30f, 2e-30f, 0}, {1000, 1e-3f, 0.5f}};
+  std::uniform_real_distribution<float> exponent(-40.0f, 15.0f), unit(0.0f, 1.0f);
+  for (int i = 0; i < 200000; ++i) {
+    std::array<float, 3> c;
+    for (float& v : c)
+      v = unit(rng) < 0.1f ? 0.0f : std::min(std::exp2(exponent(rng)), 0x1.fffffep14f);
+    colours.push_back(c);
+  }
+  for (const auto& c : colours) {
+    int expected_exponent = 31;
+    std::uint32_t expected = 0;
+    for (int e = 0; e < 32; ++e) {
+      const double step = std::ldexp(1.0, e - 24);
+      std::array<double, 3> m;
+      for (int k = 0; k < 3; ++k)
+        m[std::size_t(k)] = std::nearbyint(double(c[std::size_t(k)]) / step);
+      if (std::max({m[0], m[1], m[2]}) > 511) continue;
+      expected_exponent = e;
+      expected = std::uint32_t(e) << 27 | std::uint32_t(m[0]) | std::uint32_t(m[1]) << 9 |
+                 std::uint32_t(m[2]) << 18;
+      break;
+    }
+    const std::uint32_t word = encode_shared_exponent(c);
+    ASSERT_EQ(word, expected) << c[0] << " " << c[1] << " " << c[2];
+    const double step = shared_exponent_step(word);
+    ASSERT_EQ(step, std::ldexp(1.0, expected_exponent - 24));
+    const double largest = std::max({c[0], c[1], c[2]});
+    ASSERT_LE(step, std::max(largest / 255.75, 0x1p-24));
+    for (int k = 0; k < 3; ++k)
+      ASSERT_LE(std::abs(double(shared_exponent_channel(word, k)) - c[std::size_t(k)]), step / 2);
+  }
+  for (const float bad : {-1e-30f, -1.0f, 0x1p15f, INFINITY, NAN})
+    EXPECT_THROW(encode_shared_exponent({0.5f, bad, 0.5f}), std::invalid_argument) << bad;
+}
+
 // Calls visit(node, depth) for every node of a packed tree, walking its links from the root.
 template <typename Visit>
 void for_each_node_depth(const PackedTreeView& p, Visit&& visit) {
@@ -90,9 +138,16 @@ TEST_P(PackedTrees, KeepTopologyValuesAndCertifiedBounds) {
   for (const auto& function : test_functions(n, channels, 21)) {
     const Quadtree tree = project(function.grid, {.tolerance = 0.05});
     for (const BoundKind kind : {BoundKind::l2, BoundKind::linf})
-      for (const bool exact : {false, true}) {
-        // With exact texels (a grid's texels are), texel nodes hold their values alone.
-        const PackedTree packed = exact ? pack_exact_texels(tree, kind) : pack(tree, kind);
+      for (const int packing : {0, 1, 2}) {
+        // With exact texels (a grid's texels are), texel nodes hold their values alone: in
+        // halves (1), or in RGB shared-exponent words (2; halves for grey trees).
+        const bool exact = packing > 0;
+        const bool shared = packing == 2 && channels == 3;
+        const PackedTree packed =
+            exact ? pack_exact_texels(
+                        tree, kind,
+                        packing == 1 ? TexelEncoding::halves : TexelEncoding::shared_exponent)
+                  : pack(tree, kind);
         const PackedTreeView p = packed.view();
         ASSERT_EQ(p.node_count(), tree.node_count());
         const PackedShape& shape = p.shape();
@@ -103,7 +158,10 @@ TEST_P(PackedTrees, KeepTopologyValuesAndCertifiedBounds) {
         });
         ASSERT_EQ(p.words().size(), std::size_t(full_nodes) * shape.words_per_node() +
                                         std::size_t(p.node_count() - full_nodes) *
-                                            (exact ? 2 * channels : shape.words_per_node()));
+                                            (shared  ? 4
+                                             : exact ? 2 * channels
+                                                     : shape.words_per_node()));
+        ASSERT_EQ(shape.shared_texels(), shared);
         // The same cells, breadth first: every leaf of one is a leaf of the other.
         std::vector<std::array<int, 4>> cells_a, cells_b;
         for_each_leaf(tree.view(), [&](int, int q, int level, int x, int y) {
@@ -124,15 +182,23 @@ TEST_P(PackedTrees, KeepTopologyValuesAndCertifiedBounds) {
           next += std::uint32_t(std::popcount(link & 15u));
         }
         ASSERT_EQ(next, std::uint32_t(p.node_count()));
-        // Values within half precision of the tree's; bounds certified against the texels.
+        // Values within half precision of the tree's (shared-exponent texels within 1 / 511.5 of
+        // their largest channel); bounds certified against the texels.
         std::size_t leaf = 0;
         for_each_leaf(tree.view(), [&](int node, int q, int level, int x, int y) {
           const auto [pn, pq] = leaves[leaf++];
           const int size = n >> level;
+          double largest_channel = 0;
+          for (int c = 0; c < channels; ++c)
+            largest_channel =
+                std::max(largest_channel, std::abs(double(tree.view().value(node, 0, c, q))));
+          const bool shared_texel = shared && p.is_texel_node(pn);
           for (int c = 0; c < channels; ++c) {
             const float v = tree.view().value(node, 0, c, q), pv = p.value(pn, 0, c, pq);
-            ASSERT_LE(std::abs(pv - v), std::abs(v) * 0x1p-11f + p.scales().value_scale * 0x1p-24f)
-                << function.name;
+            const double rounding = shared_texel
+                                        ? largest_channel / 511.5 + p.scales().value_scale * 0x1p-25
+                                        : std::abs(v) * 0x1p-11 + p.scales().value_scale * 0x1p-24;
+            ASSERT_LE(std::abs(pv - v), rounding * (1 + 1e-6)) << function.name;
             double squares = 0, largest = 0;
             for (int ty = y * size; ty < (y + 1) * size; ++ty)
               for (int tx = x * size; tx < (x + 1) * size; ++tx) {
@@ -145,10 +211,12 @@ TEST_P(PackedTrees, KeepTopologyValuesAndCertifiedBounds) {
             ASSERT_LE(largest, double(p.largest_deviation_bound(pn, c, pq, level)) * (1 + 1e-6))
                 << function.name;
             // Codes round up by at most one step of 2^-3 over the source bound and the move; an
-            // exact texel's bound is the most its half may have moved.
+            // exact texel's bound is the most its half (or its word) may have moved.
             if (p.is_texel_node(pn)) {
               EXPECT_LE(p.bound(pn, c, pq),
-                        (std::abs(pv) * 0x1p-11 + p.scales().value_scale * 0x1p-25) * (1 + 1e-5));
+                        (shared_texel ? rounding
+                                      : std::abs(pv) * 0x1p-11 + p.scales().value_scale * 0x1p-25) *
+                            (1 + 1e-5));
               continue;
             }
             const double source = kind == BoundKind::l2

@@ -4,9 +4,11 @@
 // children of a node consecutive, so that one link word replaces four child indices. In trees
 // with exact texels (captures: a texel is its own average), the nodes whose quadrants are
 // single texels hold their values alone: they have no children, and their bound is their
-// halves' rounding.
+// values' rounding. RGB texel nodes hold a shared-exponent word per texel (shared_exponent.h),
+// 16 bytes instead of 24 in halves.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <bit>
 #include <cmath>
@@ -17,6 +19,7 @@
 
 #include "basis/core/half.h"
 #include "basis/core/quadtree.h"
+#include "basis/core/shared_exponent.h"
 
 namespace basis {
 
@@ -27,6 +30,11 @@ namespace basis {
 // largest deviation.
 enum class BoundKind : std::uint8_t { l2 = 0, linf = 1 };
 
+// How the texel nodes of exact texels hold their values:
+//   halves: like any node's, groups x channels x 4 quadrants of halves;
+//   shared_exponent: one shared-exponent word per quadrant (RGB trees of one group, texels >= 0).
+enum class TexelEncoding : std::uint8_t { halves = 0, shared_exponent = 1 };
+
 struct PackedShape {
   int resolution = 0;  // N of the grid the tree was projected from (2..512, a power of two)
   int channels = 1;    // 1 or 3
@@ -36,13 +44,19 @@ struct PackedShape {
   // Whether texel nodes (at depth texel_depth(), their quadrants single texels) hold only their
   // values: texels are exact, up to their halves' rounding.
   bool exact_texels = false;
+  TexelEncoding texel_encoding = TexelEncoding::halves;
 
   // 32-bit words per node: the link, the half-float values (groups x channels x 4 quadrants)
   // and the bound codes (bounded_groups x channels x 4 bytes).
   int words_per_node() const { return 1 + 2 * groups * channels + bounded_groups * channels; }
   // 32-bit words per texel node: its values alone with exact texels, a node's otherwise.
   int words_per_texel_node() const {
-    return exact_texels ? 2 * groups * channels : words_per_node();
+    if (!exact_texels) return words_per_node();
+    return shared_texels() ? 4 : 2 * groups * channels;
+  }
+  // Whether texel nodes hold shared-exponent words.
+  bool shared_texels() const {
+    return exact_texels && texel_encoding == TexelEncoding::shared_exponent;
   }
   // Depth of the nodes whose quadrants are single texels (the root's depth is 0).
   int texel_depth() const { return std::countr_zero(unsigned(resolution)) - 1; }
@@ -66,7 +80,8 @@ inline float bound_code_value(std::uint8_t c) {
 }
 
 // How far a half-rounded value may lie from what it rounds, in units of its tree's value scale:
-// half an ulp, 2^-11 of the value, or half the subnormal spacing. An exact texel's bound.
+// half an ulp, 2^-11 of the value, or half the subnormal spacing. An exact texel's bound in
+// halves; in shared-exponent words, half its word's step.
 inline constexpr double kHalfRounding = 0x1p-11, kHalfSubnormalRounding = 0x1p-25;
 
 // Where node n of a tree lies, in 32-bit words from its first node, when its nodes from
@@ -109,7 +124,8 @@ class PackedTreeView {
   const std::uint32_t* node(int n) const {
     return words_.data() + packed_node_offset(shape_, std::size_t(texel_start_), std::size_t(n));
   }
-  // The node's values: after its link, or from its first word in a texel node.
+  // The node's values: after its link, or from its first word in a texel node (halves unless
+  // the texels are shared-exponent words).
   const std::uint16_t* halves(int n) const {
     return reinterpret_cast<const std::uint16_t*>(node(n) + (is_texel_node(n) ? 0 : 1));
   }
@@ -123,7 +139,24 @@ class PackedTreeView {
   }
   // Value of group g, channel c over quadrant q of node n.
   float value(int n, int g, int c, int q) const {
+    if (shared_texel_node(n)) return shared_exponent_channel(node(n)[q], c) * scales_.value_scale;
     return half_to_float(halves(n)[(g * shape_.channels + c) * 4 + q]) * scales_.value_scale;
+  }
+  // How far value(n, g, c, q) may lie from what it rounds: half an ulp of its half (plus half
+  // the subnormal spacing), or half its shared-exponent word's step; times the value scale.
+  double rounding(int n, int g, int c, int q) const {
+    if (shared_texel_node(n))
+      return 0.5 * double(shared_exponent_step(node(n)[q])) * double(scales_.value_scale);
+    return kHalfRounding * std::abs(double(value(n, g, c, q))) +
+           kHalfSubnormalRounding * double(scales_.value_scale);
+  }
+  // The magnitude the rounding terms of a convolution scale with: |value|, or for a
+  // shared-exponent texel at least rounding / kHalfRounding, so that kHalfRounding times it
+  // bounds the rounding as it does for halves.
+  double rounding_magnitude(int n, int g, int c, int q) const {
+    const double v = std::abs(double(value(n, g, c, q)));
+    if (!shared_texel_node(n)) return v;
+    return std::max(v, rounding(n, g, c, q) / kHalfRounding);
   }
   // Bound code and bound of group g (< bounded_groups), channel c over quadrant q of node n
   // (see BoundKind); without a group, group 0's. A texel node of exact texels has no codes: its
@@ -134,10 +167,7 @@ class PackedTreeView {
   }
   std::uint8_t bound_code(int n, int c, int q) const { return bound_code(n, 0, c, q); }
   float bound(int n, int g, int c, int q) const {
-    if (shape_.exact_texels && is_texel_node(n))
-      return float((kHalfRounding * std::abs(double(value(n, g, c, q))) +
-                    kHalfSubnormalRounding * double(scales_.value_scale)) *
-                   (1 + 0x1p-20));
+    if (shape_.exact_texels && is_texel_node(n)) return float(rounding(n, g, c, q) * (1 + 0x1p-20));
     return bound_code_value(bound_code(n, g, c, q)) * scales_.bound_scale;
   }
   float bound(int n, int c, int q) const { return bound(n, 0, c, q); }
@@ -151,6 +181,8 @@ class PackedTreeView {
  private:
   PackedShape shape_;
   TreeScales scales_;
+  bool shared_texel_node(int n) const { return shape_.shared_texels() && is_texel_node(n); }
+
   std::span<const std::uint32_t> words_;
   int texel_start_ = 0, node_count_ = 0;
 };
@@ -174,7 +206,10 @@ struct PackedTree {
 PackedTree pack(const Quadtree& tree, BoundKind bounds = BoundKind::l2, int bounded_groups = 1);
 
 // The packed form of a tree whose texels are exact (a capture's: every single-texel quadrant's
-// bound is 0 in its source, std::invalid_argument otherwise): texel nodes hold values alone.
-PackedTree pack_exact_texels(const Quadtree& tree, BoundKind bounds = BoundKind::l2);
+// bound is 0 in its source, std::invalid_argument otherwise): texel nodes hold values alone, as
+// shared-exponent words for an RGB tree of one group (its texels must then be >= 0,
+// std::invalid_argument otherwise), as halves for others or when asked.
+PackedTree pack_exact_texels(const Quadtree& tree, BoundKind bounds = BoundKind::l2,
+                             TexelEncoding encoding = TexelEncoding::shared_exponent);
 
 }  // namespace basis
