@@ -355,12 +355,12 @@ TreeSetView QtFile::verify_packed_trees(const void* set_pointer, const std::stri
       s.resolution,   s.channels,
       s.groups,       set->bounds() == fb::BoundKind::L2 ? BoundKind::l2 : BoundKind::linf,
       bounded_groups, exact_texels};
-  if (version_ >= 6 && set->texel_encoding() != fb::TexelEncoding::Halves) {
-    if (set->texel_encoding() != fb::TexelEncoding::SharedExponent)
-      fail(name_, what + ": unknown texel encoding " + std::to_string(int(set->texel_encoding())));
+  if (version_ >= 6 && set->value_encoding() != fb::ValueEncoding::Halves) {
+    if (set->value_encoding() != fb::ValueEncoding::SharedExponent)
+      fail(name_, what + ": unknown texel encoding " + std::to_string(int(set->value_encoding())));
     if (!exact_texels || s.channels != 3 || s.groups != 1)
-      fail(name_, what + ": shared-exponent texels need exact texels, 3 channels and one group");
-    shape.texel_encoding = TexelEncoding::shared_exponent;
+      fail(name_, what + ": shared-exponent values need exact texels, 3 channels and one group");
+    shape.value_encoding = ValueEncoding::shared_exponent;
   }
   std::span<const TreeExtent> extents;
   if (version_ >= 5) {
@@ -443,8 +443,7 @@ TreeSetView QtFile::verify_packed_trees(const void* set_pointer, const std::stri
     // Values: halves that are neither infinite nor NaN (exponent bits all ones). Every
     // shared-exponent word is a finite value.
     const int halves = 2 * shape.groups * shape.channels * 2;
-    const int halves_end = shape.shared_texels() ? tree.texel_start() : count;
-    for (int n = 0; n < halves_end; ++n) {
+    for (int n = 0; n < (shape.shared_values() ? 0 : count); ++n) {
       const std::uint16_t* h = tree.halves(n);
       for (int k = 0; k < halves; ++k)
         if ((h[k] & 0x7c00u) == 0x7c00u)
@@ -554,9 +553,9 @@ flatbuffers::Offset<fb::TreeSet> build_tree_set(flatbuffers::FlatBufferBuilder& 
   set.add_bounded_groups(s.bounded_groups);
   set.add_node_extents(extents);
   set.add_exact_texels(s.exact_texels);
-  set.add_texel_encoding(s.texel_encoding == TexelEncoding::shared_exponent
-                             ? fb::TexelEncoding::SharedExponent
-                             : fb::TexelEncoding::Halves);
+  set.add_value_encoding(s.value_encoding == ValueEncoding::shared_exponent
+                             ? fb::ValueEncoding::SharedExponent
+                             : fb::ValueEncoding::Halves);
   set.add_words(words);
   return set.Finish();
 }

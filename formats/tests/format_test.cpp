@@ -119,7 +119,7 @@ TreeExtent whole_tree(const PackedTree& tree) {
 std::vector<std::byte> unchecked_file(const TreeSetView& trees, const CaptureSetView* captures,
                                       std::uint8_t bound_kind = 0,
                                       std::uint32_t version = kQtFormatVersion,
-                                      int bounded_groups = 1, int texel_encoding = -1) {
+                                      int bounded_groups = 1, int value_encoding = -1) {
   flatbuffers::FlatBufferBuilder b;
   auto structs = [&]<typename F, typename T>(std::span<const T> v) {
     return b.CreateVectorOfStructs(reinterpret_cast<const F*>(v.data()), v.size());
@@ -151,8 +151,8 @@ std::vector<std::byte> unchecked_file(const TreeSetView& trees, const CaptureSet
     set.add_packed_extents(packed_extents);
   }
   if (version >= 6)  // the shape's encoding unless told otherwise
-    set.add_texel_encoding(
-        format::TexelEncoding(texel_encoding >= 0 ? texel_encoding : int(s.texel_encoding)));
+    set.add_value_encoding(
+        format::ValueEncoding(value_encoding >= 0 ? value_encoding : int(s.value_encoding)));
   set.add_words(words);
   const auto set_offset = set.Finish();
   flatbuffers::Offset<format::CaptureSet> info = 0;
@@ -591,20 +591,19 @@ TEST(QtFormat, ExactTexelTreesLoadInPlaceAndOlderCaptureSetsStillLoad) {
 // Version 6: the texel nodes of RGB captures hold shared-exponent words. They write and load in
 // place; a set of version 5 (texel nodes in halves) still loads and convolves as it did; an
 // unknown encoding, or shared words in a tree that cannot hold them, is refused by name.
-TEST(QtFormat, SharedExponentTexelsLoadInPlaceAndVersion5TexelsStillLoad) {
+TEST(QtFormat, SharedExponentValuesLoadInPlaceAndVersion5TreesStillLoad) {
   const Quadtree source = sample_float_tree(32, 3, 0, 0.0);  // random texels: every level
   const PackedTree shared = pack_exact_texels(source);
-  const PackedTree halves = pack_exact_texels(source, BoundKind::l2, TexelEncoding::halves);
-  ASSERT_TRUE(shared.shape.shared_texels());
-  ASSERT_FALSE(halves.shape.shared_texels());
+  const PackedTree halves = pack_exact_texels(source, BoundKind::l2, ValueEncoding::halves);
+  ASSERT_TRUE(shared.shape.shared_values());
+  ASSERT_FALSE(halves.shape.shared_values());
   ASSERT_EQ(shared.texel_start, halves.texel_start);
-  // 16 bytes a texel node instead of 24.
-  const std::size_t texel_nodes = std::size_t(shared.node_count()) - shared.texel_start;
-  EXPECT_EQ(halves.words.size() - shared.words.size(), texel_nodes * 2);
+  // Every node's values in 16 bytes instead of 24.
+  EXPECT_EQ(halves.words.size() - shared.words.size(), std::size_t(shared.node_count()) * 2);
   const PackedTree light = sample_tree(32, 3, 4);
   const QtFile file = QtFile::from_bytes(encode_tree(shared.view(), {}, {}), "shared.qt");
   EXPECT_EQ(file.format_version(), 6u);
-  EXPECT_TRUE(file.tree().shape().shared_texels());
+  EXPECT_TRUE(file.tree().shape().shared_values());
   EXPECT_TRUE(same_words(file.tree().words(), shared.words));
   EXPECT_EQ(convolve(light.view(), file.tree()).value, convolve(light.view(), shared.view()).value);
   // Version 5, as earlier builds wrote capture trees: halves, read as halves.
@@ -613,7 +612,7 @@ TEST(QtFormat, SharedExponentTexelsLoadInPlaceAndVersion5TexelsStillLoad) {
       unchecked_file(TreeSetView(halves.shape, {&extent, 1}, halves.words), nullptr, 0, 5),
       "v5.qt");
   EXPECT_EQ(v5.format_version(), 5u);
-  EXPECT_FALSE(v5.tree().shape().shared_texels());
+  EXPECT_FALSE(v5.tree().shape().shared_values());
   const Convolution from_v5 = convolve(light.view(), v5.tree());
   EXPECT_EQ(from_v5.value, convolve(light.view(), halves.view()).value);
   const Convolution from_v6 = convolve(light.view(), file.tree());
@@ -629,7 +628,7 @@ TEST(QtFormat, SharedExponentTexelsLoadInPlaceAndVersion5TexelsStillLoad) {
   const TreeExtent grey_extent = whole_tree(grey);
   EXPECT_NE(load_error(unchecked_file(TreeSetView(grey.shape, {&grey_extent, 1}, grey.words),
                                       nullptr, 0, kQtFormatVersion, 1, 1))
-                .find("shared-exponent texels need"),
+                .find("shared-exponent values need"),
             std::string::npos);
 }
 

@@ -86,7 +86,7 @@ class WeightedTree {
 // largest-deviation terms hold for B >= 0 and A >= 0 respectively), the
 // rounding terms kRoundingPerMagnitude |a b| here and kRoundingFloor (times the value scales)
 // once for the whole descent. For weighted groups |a| is their magnitude (WeightedTree); for
-// shared-exponent texels, |a| and |b| are their rounding magnitudes (PackedTreeView).
+// shared-exponent values, |a| and |b| are their rounding magnitudes (PackedTreeView).
 auto packed_pair_bound(const WeightedTree& a, const PackedTreeView& b, double value_scale_a) {
   const bool linf_a = a.shape().bounds == BoundKind::linf;
   const bool linf_b = b.shape().bounds == BoundKind::linf;
@@ -187,7 +187,7 @@ inline __m128 shared_channel(__m128i words, int c, __m128 steps) {
   return _mm_mul_ps(_mm_cvtepi32_ps(mantissas), steps);
 }
 
-// A shared-exponent texel's rounding magnitude (PackedTreeView::rounding_magnitude) from its
+// A shared-exponent value's rounding magnitude (PackedTreeView::rounding_magnitude) from its
 // value and step: at least half the step over kHalfRounding.
 constexpr float kSharedStepMagnitude = float(0.5 / kHalfRounding);
 
@@ -216,8 +216,8 @@ struct DescentConstants {
   const std::uint32_t* texels_a;
   const std::uint32_t* texels_b;
   float texel_bound_a, texel_bound_b;
-  // Whether those texel nodes hold shared-exponent words (RGB, one group), and the factor that
-  // brings a word's step to its bound, half the step, in bound units.
+  // Whether a tree's nodes hold shared-exponent words (RGB, one group, exact texels), and the
+  // factor that brings a texel word's step to its bound, half the step, in bound units.
   bool shared_a, shared_b;
   float shared_bound_a, shared_bound_b;
   float value_scale, bound_scale;
@@ -230,7 +230,9 @@ struct DescentConstants {
   // A pair stops in a channel when its product term <= per_product |a b| + allowed[c] (bound
   // units): term + kRoundingPerMagnitude |a b| <= accuracy / 2 (|a b| + E), E the roots' product.
   float per_product;
-  // Weighted descents: term <= per_value |a b| - per_magnitude (sum_g |w_g a_g|) |b| + allowed[c].
+  // Weighted descents and shared-exponent values: term <= per_value |a b| - per_magnitude
+  // |a|' |b|' + allowed[c], |a|' and |b|' the magnitudes the rounding scales with (sum_g
+  // |w_g a_g|, or a shared word's rounding magnitude).
   float per_value, per_magnitude;
   float allowed[C];
 
@@ -240,8 +242,8 @@ struct DescentConstants {
         b(tb.words().data()),
         words_a(ta.shape().words_per_node()),
         words_b(tb.shape().words_per_node()),
-        codes_a(1 + 2 * ta.shape().groups * CA),
-        codes_b(1 + 2 * tb.shape().groups * CB),
+        codes_a(1 + std::size_t(ta.shape().value_words())),
+        codes_b(1 + std::size_t(tb.shape().value_words())),
         texel_start_a(std::uint32_t(ta.texel_start())),
         texel_start_b(std::uint32_t(tb.texel_start())),
         texel_depth_a(ta.texel_start() < ta.node_count() ? ta.shape().texel_depth() : -1),
@@ -254,8 +256,8 @@ struct DescentConstants {
             float(double(ta.scales().value_scale) / ta.scales().bound_scale * (1 + 0x1p-20))),
         texel_bound_b(
             float(double(tb.scales().value_scale) / tb.scales().bound_scale * (1 + 0x1p-20))),
-        shared_a(CA == 3 && ta.shape().shared_texels()),
-        shared_b(CB == 3 && tb.shape().shared_texels()),
+        shared_a(CA == 3 && ta.shape().shared_values()),
+        shared_b(CB == 3 && tb.shape().shared_values()),
         shared_bound_a(texel_bound_a * 0.5f),
         shared_bound_b(texel_bound_b * 0.5f),
         targeted(accuracy > 0) {
@@ -378,9 +380,9 @@ struct NarrowPairs {
                         const std::uint32_t* wb, unsigned internal, float area, Sums& sums) {
     const std::uint32_t* values_a = wa + (kTexelA ? 0 : 1);
     const std::uint32_t* values_b = wb + (kTexelB ? 0 : 1);
-    // Shared-exponent texel nodes: a word per quadrant, the channels unpacked below.
-    const bool shared_a = kTexelA && CA == 3 && GW == 1 && k.shared_a;
-    const bool shared_b = kTexelB && CB == 3 && k.shared_b;
+    // Shared-exponent values: a word per quadrant, the channels unpacked below.
+    const bool shared_a = CA == 3 && GW == 1 && k.shared_a;
+    const bool shared_b = CB == 3 && k.shared_b;
     __m128i words_a = _mm_setzero_si128(), words_b = _mm_setzero_si128();
     __m128 steps_a = _mm_setzero_ps(), steps_b = _mm_setzero_ps();
     if (shared_a) {
@@ -398,7 +400,10 @@ struct NarrowPairs {
       if (shared_a) {
         va = shared_channel(words_a, ca, steps_a);
         abs_a = _mm_max_ps(va, _mm_mul_ps(steps_a, _mm_set1_ps(kSharedStepMagnitude)));
-        sa = _mm_mul_ps(steps_a, _mm_set1_ps(k.shared_bound_a));
+        if constexpr (kTexelA)
+          sa = _mm_mul_ps(steps_a, _mm_set1_ps(k.shared_bound_a));
+        else
+          sa = load_bound_codes(wa + k.codes_a + ca);
       } else if constexpr (GW == 1) {
         va = load_halves(values_a + 2 * ca);
         abs_a = abs_ps(va);
@@ -422,7 +427,10 @@ struct NarrowPairs {
       if (shared_b) {
         vb[c] = shared_channel(words_b, c, steps_b);
         abs_b = _mm_max_ps(vb[c], _mm_mul_ps(steps_b, _mm_set1_ps(kSharedStepMagnitude)));
-        sb = _mm_mul_ps(steps_b, _mm_set1_ps(k.shared_bound_b));
+        if constexpr (kTexelB)
+          sb = _mm_mul_ps(steps_b, _mm_set1_ps(k.shared_bound_b));
+        else
+          sb = load_bound_codes(wb + k.codes_b + c);
       } else {
         vb[c] = load_halves(values_b + 2 * (CB == 1 ? 0 : c));
         abs_b = abs_ps(vb[c]);
@@ -441,10 +449,10 @@ struct NarrowPairs {
       __m128 enough = _mm_castsi128_ps(_mm_set1_epi32(-1));
       for (int c = 0; c < C; ++c) {
         __m128 allowed;
-        if constexpr (GW == 1)
+        if (GW == 1 && !k.shared_a && !k.shared_b)
           allowed = _mm_add_ps(_mm_mul_ps(_mm_set1_ps(k.per_product), abs_ps(product[c])),
                                _mm_set1_ps(k.allowed[c]));
-        else  // the rounding scales with the groups' magnitude, not with the combined product
+        else  // the rounding scales with the magnitudes (groups', or shared words'), not |a b|
           allowed = _mm_add_ps(_mm_sub_ps(_mm_mul_ps(_mm_set1_ps(k.per_value), abs_ps(product[c])),
                                           _mm_mul_ps(_mm_set1_ps(k.per_magnitude), magnitude[c])),
                                _mm_set1_ps(k.allowed[c]));
@@ -577,11 +585,14 @@ struct WidePairs {
     const std::uint32_t* values_b = wb + (kTexelB ? 0 : 1);
     const __m512 step_magnitude = _mm512_set1_ps(kSharedStepMagnitude);
     __m512 va, abs_a, sa;
-    if (kTexelA && CA == 3 && GW == 1 && k.shared_a) {  // shared-exponent texels
+    if (CA == 3 && GW == 1 && k.shared_a) {  // shared-exponent values
       __m512 steps;
       va = shared_values(values_a, steps);
       abs_a = _mm512_maskz_max_ps(0xffff, va, _mm512_mul_ps(steps, step_magnitude));
-      sa = _mm512_mul_ps(steps, _mm512_set1_ps(k.shared_bound_a));
+      if constexpr (kTexelA)
+        sa = _mm512_mul_ps(steps, _mm512_set1_ps(k.shared_bound_a));
+      else
+        sa = bounds(wa, CA, k.codes_a);
     } else if constexpr (GW == 1) {
       va = values(values_a, CA, 0);
       abs_a = abs512(va);
@@ -602,11 +613,14 @@ struct WidePairs {
       if constexpr (kTexelA) sa = texel_bounds(abs_a, k.total_weight, k.texel_bound_a);
     }
     __m512 vb, abs_b, sb;
-    if (kTexelB && CB == 3 && k.shared_b) {  // shared-exponent texels
+    if (CB == 3 && k.shared_b) {  // shared-exponent values
       __m512 steps;
       vb = shared_values(values_b, steps);
       abs_b = _mm512_maskz_max_ps(0xffff, vb, _mm512_mul_ps(steps, step_magnitude));
-      sb = _mm512_mul_ps(steps, _mm512_set1_ps(k.shared_bound_b));
+      if constexpr (kTexelB)
+        sb = _mm512_mul_ps(steps, _mm512_set1_ps(k.shared_bound_b));
+      else
+        sb = bounds(wb, CB, k.codes_b);
     } else {
       vb = values(values_b, CB, 0);
       abs_b = abs512(vb);
@@ -621,9 +635,9 @@ struct WidePairs {
       term = linf_terms<kLinfA, kLinfB>(k, term, sa, sb, abs_a, abs_b);
     if (k.targeted) {
       __m512 per_pair;
-      if constexpr (GW == 1)
+      if (GW == 1 && !k.shared_a && !k.shared_b)
         per_pair = _mm512_mul_ps(_mm512_set1_ps(k.per_product), abs512(product));
-      else  // the rounding scales with the groups' magnitude, not with the combined product
+      else  // the rounding scales with the magnitudes (groups', or shared words'), not |a b|
         per_pair = _mm512_sub_ps(
             _mm512_mul_ps(_mm512_set1_ps(k.per_value), abs512(product)),
             _mm512_mul_ps(_mm512_set1_ps(k.per_magnitude), _mm512_mul_ps(abs_a, abs_b)));

@@ -20,7 +20,7 @@ float PackedTreeView::largest_deviation_bound(int n, int g, int c, int q, int le
 namespace {
 
 PackedTree pack_tree(const Quadtree& tree, BoundKind bounds, int bounded_groups, bool exact_texels,
-                     TexelEncoding encoding) {
+                     ValueEncoding encoding) {
   const QuadtreeView source = tree.view();
   const QuadtreeShape& s = tree.shape;
   if (bounded_groups < 1 || bounded_groups > s.bounded_groups)
@@ -29,7 +29,7 @@ PackedTree pack_tree(const Quadtree& tree, BoundKind bounds, int bounded_groups,
                                 std::to_string(s.bounded_groups));
   PackedTree out;
   out.shape = {s.resolution, s.channels, s.groups, bounds, bounded_groups, exact_texels};
-  if (exact_texels && s.channels == 3 && s.groups == 1) out.shape.texel_encoding = encoding;
+  if (exact_texels && s.channels == 3 && s.groups == 1) out.shape.value_encoding = encoding;
   const int count = source.node_count();
   const bool have_deviations = !tree.deviations.empty();
   auto source_bound = [&](int node, int g, int c, int q) -> double {
@@ -47,23 +47,42 @@ PackedTree pack_tree(const Quadtree& tree, BoundKind bounds, int bounded_groups,
           largest = std::max(largest, double(std::abs(source.value(n, g, c, q))));
   out.scales.value_scale = largest > 0 ? std::ldexp(1.0f, std::ilogb(largest) - 14) : 1.0f;
   const double value_scale = out.scales.value_scale;
-  // Every value's half, once; bounds for the packed values: the source's plus how far each
-  // value moved.
-  const std::size_t values_per_node = std::size_t(s.groups) * s.channels * 4;
-  std::vector<std::uint16_t> halves(std::size_t(count) * values_per_node);
+  // Every node's value words, once (halves, or a shared-exponent word per quadrant); bounds for
+  // the packed values: the source's plus how far each value moved.
+  const bool shared = out.shape.shared_values();
+  const std::size_t value_words = std::size_t(out.shape.value_words());
+  std::vector<std::uint32_t> values(std::size_t(count) * value_words);
   const std::size_t bounds_per_node = std::size_t(bounded_groups) * s.channels * 4;
   std::vector<double> moved_bounds(std::size_t(count) * bounds_per_node);
   double largest_bound = 0;
   for (int n = 0; n < count; ++n) {
-    std::uint16_t* h = halves.data() + std::size_t(n) * values_per_node;
+    std::uint32_t* w = values.data() + std::size_t(n) * value_words;
+    auto* h = reinterpret_cast<std::uint16_t*>(w);
+    if (shared)
+      for (int q = 0; q < 4; ++q) {
+        std::array<float, 3> rgb;
+        for (int c = 0; c < 3; ++c)
+          rgb[std::size_t(c)] = float(double(source.value(n, 0, c, q)) / value_scale);
+        if (!(rgb[0] >= 0 && rgb[1] >= 0 && rgb[2] >= 0))
+          throw std::invalid_argument("shared-exponent values must be >= 0, a quadrant holds (" +
+                                      std::to_string(rgb[0]) + ", " + std::to_string(rgb[1]) +
+                                      ", " + std::to_string(rgb[2]) + ")");
+        w[q] = encode_shared_exponent(rgb);
+      }
     for (int g = 0; g < s.groups; ++g)
       for (int c = 0; c < s.channels; ++c)
         for (int q = 0; q < 4; ++q) {
           const float v = source.value(n, g, c, q);
-          const std::uint16_t half = float_to_half(float(double(v) / value_scale));
-          h[(g * s.channels + c) * 4 + q] = half;
+          float packed;
+          if (shared) {
+            packed = shared_exponent_channel(w[q], c);
+          } else {
+            const std::uint16_t half = float_to_half(float(double(v) / value_scale));
+            h[(g * s.channels + c) * 4 + q] = half;
+            packed = half_to_float(half);
+          }
           if (g >= bounded_groups) continue;
-          const double moved = std::abs(double(half_to_float(half)) * value_scale - double(v));
+          const double moved = std::abs(double(packed) * value_scale - double(v));
           const double b = source_bound(n, g, c, q) + moved;
           moved_bounds[std::size_t(n) * bounds_per_node + (g * s.channels + c) * 4 + q] = b;
           largest_bound = std::max(largest_bound, b);
@@ -120,22 +139,9 @@ PackedTree pack_tree(const Quadtree& tree, BoundKind bounds, int bounded_groups,
   for (std::size_t i = 0; i < order.size(); ++i) {
     const int n = order[i];
     std::uint32_t* w = out.words.data() + packed_node_offset(out.shape, out.texel_start, i);
-    if (i >= out.texel_start && out.shape.shared_texels()) {  // a word per texel
-      for (int q = 0; q < 4; ++q) {
-        std::array<float, 3> rgb;
-        for (int c = 0; c < 3; ++c)
-          rgb[std::size_t(c)] = float(double(source.value(n, 0, c, q)) / value_scale);
-        if (!(rgb[0] >= 0 && rgb[1] >= 0 && rgb[2] >= 0))
-          throw std::invalid_argument("shared-exponent texels must be >= 0, a texel is (" +
-                                      std::to_string(rgb[0]) + ", " + std::to_string(rgb[1]) +
-                                      ", " + std::to_string(rgb[2]) + ")");
-        w[q] = encode_shared_exponent(rgb);
-      }
-      continue;
-    }
+    const std::uint32_t* node_values = values.data() + std::size_t(n) * value_words;
     if (i >= out.texel_start) {  // a texel node: values alone
-      std::memcpy(w, halves.data() + std::size_t(n) * values_per_node,
-                  values_per_node * sizeof(std::uint16_t));
+      std::copy_n(node_values, value_words, w);
       continue;
     }
     std::uint32_t mask = 0;
@@ -146,9 +152,8 @@ PackedTree pack_tree(const Quadtree& tree, BoundKind bounds, int bounded_groups,
         order.push_back(child);
       }
     w[0] = mask ? first << 4 | mask : 0;
-    std::memcpy(w + 1, halves.data() + std::size_t(n) * values_per_node,
-                values_per_node * sizeof(std::uint16_t));
-    auto* codes = reinterpret_cast<std::uint8_t*>(w + 1 + 2 * s.groups * s.channels);
+    std::copy_n(node_values, value_words, w + 1);
+    auto* codes = reinterpret_cast<std::uint8_t*>(w + 1 + value_words);
     for (std::size_t k = 0; k < bounds_per_node; ++k)
       codes[k] = code_for(moved_bounds[std::size_t(n) * bounds_per_node + k]);
   }
@@ -158,10 +163,10 @@ PackedTree pack_tree(const Quadtree& tree, BoundKind bounds, int bounded_groups,
 }  // namespace
 
 PackedTree pack(const Quadtree& tree, BoundKind bounds, int bounded_groups) {
-  return pack_tree(tree, bounds, bounded_groups, false, TexelEncoding::halves);
+  return pack_tree(tree, bounds, bounded_groups, false, ValueEncoding::halves);
 }
 
-PackedTree pack_exact_texels(const Quadtree& tree, BoundKind bounds, TexelEncoding encoding) {
+PackedTree pack_exact_texels(const Quadtree& tree, BoundKind bounds, ValueEncoding encoding) {
   return pack_tree(tree, bounds, 1, true, encoding);
 }
 

@@ -33,7 +33,7 @@ TEST_P(PackedConvolution, WithinTheBoundOfTheTexelsAndHalfPrecisionOfTheTrees) {
   const Shapes k = GetParam();
   const auto fa = test_functions(k.res_a, k.channels_a, 31);
   const auto fb = test_functions(k.res_b, k.channels_b, 32);
-  for (const TexelEncoding encoding : {TexelEncoding::halves, TexelEncoding::shared_exponent})
+  for (const ValueEncoding encoding : {ValueEncoding::halves, ValueEncoding::shared_exponent})
     for (const BoundKind kind_a : {BoundKind::l2, BoundKind::linf})
       for (const BoundKind kind_b : {BoundKind::l2, BoundKind::linf})
         for (const auto& [name_a, grid_a] : fa)
@@ -53,7 +53,7 @@ TEST_P(PackedConvolution, WithinTheBoundOfTheTexelsAndHalfPrecisionOfTheTrees) {
             // A shared-exponent texel rounds to 2^-9 of its largest channel, not of its own, and
             // a descent that stops at the other tree's leaf reads the parent's half instead.
             const double rounding_gap =
-                a.shape.shared_texels() || b.shape.shared_texels() ? 4e-3 : 1e-3;
+                a.shape.shared_values() || b.shape.shared_values() ? 4e-3 : 1e-3;
             const Convolution simd = convolve(a.view(), b.view());
             const Convolution scalar = convolve_scalar(a.view(), b.view());
             // The dense product of the packed trees' reconstructions, to half precision: a
@@ -278,6 +278,50 @@ TEST(PackedConvolution, LevelsLargerThanTheQueueAreDescendedInFull) {
       EXPECT_LT(relative_gap(simd.value[c], scalar.value[c]), 1e-5) << n;
       EXPECT_LT(relative_gap(simd.bound[c], scalar.bound[c]), 1e-5) << n;
     }
+  }
+}
+
+// Shared-exponent words round every channel to a step of the quadrant's largest: a dim channel
+// below half that step reads 0, all of it error. The bound must cover it through its rounding
+// terms (here they decide, not the deviations), with the words on either side of the descent,
+// in full nodes (a constant capture: its root) and in texel nodes (a checkerboard), in full and
+// with an accuracy target. Ground truth: the product of the texels in double.
+TEST(PackedConvolution, SharedExponentRoundingStaysWithinTheBound) {
+  const int n = 32;
+  const float dim = 0x1p-9f * 0.97f;  // half the step of a largest channel of 1 is 2^-9
+  Grid constant(n, 3), checkerboard(n, 3), light(n, 1);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const float scale = (x + y) % 2 ? 1.0f : 0.5f;  // 0.5: half its step is 2^-10
+      for (int c = 0; c < 3; ++c) {
+        constant.at(0, c, x, y) = c == 0 ? 1.0f : c == 1 ? dim : 0.0f;
+        checkerboard.at(0, c, x, y) = c == 0 ? scale : c == 1 ? dim * scale : 0.0f;
+      }
+      light.at(0, 0, x, y) = 1.0f + 0.5f * float(x) / n;
+    }
+  const PackedTree a = pack(project(light, {.tolerance = 0}));
+  for (const Grid* capture : {&constant, &checkerboard}) {
+    const PackedTree b = pack_exact_texels(project(*capture, {.tolerance = 0}));
+    ASSERT_TRUE(b.shape.shared_values());
+    double truth[3] = {};
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x)
+        for (int c = 0; c < 3; ++c)
+          truth[c] += double(light.at(0, 0, x, y)) * capture->at(0, c, x, y) / (double(n) * n);
+    for (const double accuracy : {0.0, 0.05})
+      for (const bool swapped : {false, true}) {
+        const PackedTreeView first = swapped ? b.view() : a.view();
+        const PackedTreeView second = swapped ? a.view() : b.view();
+        for (const Convolution& r : {convolve(first, second, {.accuracy = accuracy}),
+                                     convolve_scalar(first, second, {.accuracy = accuracy})}) {
+          // The dim channel is lost to the rounding: the test is one the bound could fail.
+          EXPECT_GT(std::abs(r.value[1] - truth[1]), 0.5 * truth[1]);
+          for (int c = 0; c < 3; ++c)
+            EXPECT_LE(std::abs(r.value[c] - truth[c]), r.bound[c] * (1 + 1e-6) + 1e-12)
+                << "channel " << c << " accuracy " << accuracy << " swapped " << swapped
+                << " checkerboard " << (capture == &checkerboard);
+        }
+      }
   }
 }
 

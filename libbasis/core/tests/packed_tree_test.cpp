@@ -140,13 +140,13 @@ TEST_P(PackedTrees, KeepTopologyValuesAndCertifiedBounds) {
     for (const BoundKind kind : {BoundKind::l2, BoundKind::linf})
       for (const int packing : {0, 1, 2}) {
         // With exact texels (a grid's texels are), texel nodes hold their values alone: in
-        // halves (1), or in RGB shared-exponent words (2; halves for grey trees).
+        // halves (1), or, RGB, all values in shared-exponent words (2; halves for grey trees).
         const bool exact = packing > 0;
         const bool shared = packing == 2 && channels == 3;
         const PackedTree packed =
             exact ? pack_exact_texels(
                         tree, kind,
-                        packing == 1 ? TexelEncoding::halves : TexelEncoding::shared_exponent)
+                        packing == 1 ? ValueEncoding::halves : ValueEncoding::shared_exponent)
                   : pack(tree, kind);
         const PackedTreeView p = packed.view();
         ASSERT_EQ(p.node_count(), tree.node_count());
@@ -161,7 +161,9 @@ TEST_P(PackedTrees, KeepTopologyValuesAndCertifiedBounds) {
                                             (shared  ? 4
                                              : exact ? 2 * channels
                                                      : shape.words_per_node()));
-        ASSERT_EQ(shape.shared_texels(), shared);
+        // A full node: its link, its values (4 words shared, 2 x channels in halves), bounds.
+        ASSERT_EQ(shape.words_per_node(), 1 + (shared ? 4 : 2 * channels) + channels);
+        ASSERT_EQ(shape.shared_values(), shared);
         // The same cells, breadth first: every leaf of one is a leaf of the other.
         std::vector<std::array<int, 4>> cells_a, cells_b;
         for_each_leaf(tree.view(), [&](int, int q, int level, int x, int y) {
@@ -182,7 +184,7 @@ TEST_P(PackedTrees, KeepTopologyValuesAndCertifiedBounds) {
           next += std::uint32_t(std::popcount(link & 15u));
         }
         ASSERT_EQ(next, std::uint32_t(p.node_count()));
-        // Values within half precision of the tree's (shared-exponent texels within 1 / 511.5 of
+        // Values within half precision of the tree's (shared-exponent words within 1 / 511.5 of
         // their largest channel); bounds certified against the texels.
         std::size_t leaf = 0;
         for_each_leaf(tree.view(), [&](int node, int q, int level, int x, int y) {
@@ -192,10 +194,9 @@ TEST_P(PackedTrees, KeepTopologyValuesAndCertifiedBounds) {
           for (int c = 0; c < channels; ++c)
             largest_channel =
                 std::max(largest_channel, std::abs(double(tree.view().value(node, 0, c, q))));
-          const bool shared_texel = shared && p.is_texel_node(pn);
           for (int c = 0; c < channels; ++c) {
             const float v = tree.view().value(node, 0, c, q), pv = p.value(pn, 0, c, pq);
-            const double rounding = shared_texel
+            const double rounding = shared
                                         ? largest_channel / 511.5 + p.scales().value_scale * 0x1p-25
                                         : std::abs(v) * 0x1p-11 + p.scales().value_scale * 0x1p-24;
             ASSERT_LE(std::abs(pv - v), rounding * (1 + 1e-6)) << function.name;
@@ -214,7 +215,7 @@ TEST_P(PackedTrees, KeepTopologyValuesAndCertifiedBounds) {
             // exact texel's bound is the most its half (or its word) may have moved.
             if (p.is_texel_node(pn)) {
               EXPECT_LE(p.bound(pn, c, pq),
-                        (shared_texel ? rounding
+                        (shared ? rounding
                                       : std::abs(pv) * 0x1p-11 + p.scales().value_scale * 0x1p-25) *
                             (1 + 1e-5));
               continue;
@@ -227,8 +228,13 @@ TEST_P(PackedTrees, KeepTopologyValuesAndCertifiedBounds) {
                 << function.name;
           }
         });
+        // Shared words round each channel by up to 1 / 511.5 of the largest (at most the sum).
+        double channel_sum = 0;
+        for (int c = 0; c < channels; ++c)
+          channel_sum += std::abs(integrate(tree.view(), 0, c));
         EXPECT_NEAR(integrate(p, 0, 0), integrate(tree.view(), 0, 0),
-                    1e-3 * std::abs(integrate(tree.view(), 0, 0)) + 1e-9);
+                    (shared ? channel_sum / 511.5 : 1e-3 * std::abs(integrate(tree.view(), 0, 0))) +
+                        1e-9);
       }
   }
 }

@@ -21,8 +21,8 @@ namespace basis {
 // sets' directional lights, version 3 packed trees (packed_tree.h), version 4 bounds for more
 // than one channel group (the derivatives over the outgoing direction that tables hold),
 // version 5 texel nodes of values alone in trees with exact texels (captures) and extents in
-// words, version 6 those texel nodes in RGB trees as shared-exponent words (4 bytes a texel
-// instead of 6). Versions 3 to 6 load where they lie (the extents of 3 and 4 converted);
+// words, version 6 the values of RGB trees with exact texels as shared-exponent words (4 bytes
+// a quadrant instead of 6). Versions 3 to 6 load where they lie (the extents of 3 and 4 converted);
 // versions 1 and 2 too, their float trees packed on loading with largest-deviation (linf)
 // bounds.
 inline constexpr std::uint32_t kQtFormatVersion = 6;

@@ -4,8 +4,9 @@
 // children of a node consecutive, so that one link word replaces four child indices. In trees
 // with exact texels (captures: a texel is its own average), the nodes whose quadrants are
 // single texels hold their values alone: they have no children, and their bound is their
-// values' rounding. RGB texel nodes hold a shared-exponent word per texel (shared_exponent.h),
-// 16 bytes instead of 24 in halves.
+// values' rounding. RGB trees with exact texels (captures, radiance >= 0) hold every node's
+// values as a shared-exponent word per quadrant (shared_exponent.h): 16 bytes where halves take
+// 24, so a texel node of 16 bytes and a full node of 32 instead of 40.
 #pragma once
 
 #include <algorithm>
@@ -30,10 +31,10 @@ namespace basis {
 // largest deviation.
 enum class BoundKind : std::uint8_t { l2 = 0, linf = 1 };
 
-// How the texel nodes of exact texels hold their values:
-//   halves: like any node's, groups x channels x 4 quadrants of halves;
-//   shared_exponent: one shared-exponent word per quadrant (RGB trees of one group, texels >= 0).
-enum class TexelEncoding : std::uint8_t { halves = 0, shared_exponent = 1 };
+// How the nodes of a tree with exact texels hold their values:
+//   halves: groups x channels x 4 quadrants of halves, as every other tree;
+//   shared_exponent: one shared-exponent word per quadrant (RGB trees of one group, values >= 0).
+enum class ValueEncoding : std::uint8_t { halves = 0, shared_exponent = 1 };
 
 struct PackedShape {
   int resolution = 0;  // N of the grid the tree was projected from (2..512, a power of two)
@@ -44,19 +45,21 @@ struct PackedShape {
   // Whether texel nodes (at depth texel_depth(), their quadrants single texels) hold only their
   // values: texels are exact, up to their halves' rounding.
   bool exact_texels = false;
-  TexelEncoding texel_encoding = TexelEncoding::halves;
+  ValueEncoding value_encoding = ValueEncoding::halves;
 
   // 32-bit words per node: the link, the half-float values (groups x channels x 4 quadrants)
   // and the bound codes (bounded_groups x channels x 4 bytes).
-  int words_per_node() const { return 1 + 2 * groups * channels + bounded_groups * channels; }
+  int words_per_node() const { return 1 + value_words() + bounded_groups * channels; }
+  // 32-bit words of a node's values.
+  int value_words() const { return shared_values() ? 4 : 2 * groups * channels; }
   // 32-bit words per texel node: its values alone with exact texels, a node's otherwise.
   int words_per_texel_node() const {
     if (!exact_texels) return words_per_node();
-    return shared_texels() ? 4 : 2 * groups * channels;
+    return value_words();
   }
-  // Whether texel nodes hold shared-exponent words.
-  bool shared_texels() const {
-    return exact_texels && texel_encoding == TexelEncoding::shared_exponent;
+  // Whether nodes hold their values as shared-exponent words.
+  bool shared_values() const {
+    return exact_texels && value_encoding == ValueEncoding::shared_exponent;
   }
   // Depth of the nodes whose quadrants are single texels (the root's depth is 0).
   int texel_depth() const { return std::countr_zero(unsigned(resolution)) - 1; }
@@ -125,7 +128,7 @@ class PackedTreeView {
     return words_.data() + packed_node_offset(shape_, std::size_t(texel_start_), std::size_t(n));
   }
   // The node's values: after its link, or from its first word in a texel node (halves unless
-  // the texels are shared-exponent words).
+  // the tree's values are shared-exponent words).
   const std::uint16_t* halves(int n) const {
     return reinterpret_cast<const std::uint16_t*>(node(n) + (is_texel_node(n) ? 0 : 1));
   }
@@ -139,23 +142,26 @@ class PackedTreeView {
   }
   // Value of group g, channel c over quadrant q of node n.
   float value(int n, int g, int c, int q) const {
-    if (shared_texel_node(n)) return shared_exponent_channel(node(n)[q], c) * scales_.value_scale;
+    if (shape_.shared_values())
+      return shared_exponent_channel(node(n)[(is_texel_node(n) ? 0 : 1) + q], c) *
+             scales_.value_scale;
     return half_to_float(halves(n)[(g * shape_.channels + c) * 4 + q]) * scales_.value_scale;
   }
   // How far value(n, g, c, q) may lie from what it rounds: half an ulp of its half (plus half
   // the subnormal spacing), or half its shared-exponent word's step; times the value scale.
   double rounding(int n, int g, int c, int q) const {
-    if (shared_texel_node(n))
-      return 0.5 * double(shared_exponent_step(node(n)[q])) * double(scales_.value_scale);
+    if (shape_.shared_values())
+      return 0.5 * double(shared_exponent_step(node(n)[(is_texel_node(n) ? 0 : 1) + q])) *
+             double(scales_.value_scale);
     return kHalfRounding * std::abs(double(value(n, g, c, q))) +
            kHalfSubnormalRounding * double(scales_.value_scale);
   }
   // The magnitude the rounding terms of a convolution scale with: |value|, or for a
-  // shared-exponent texel at least rounding / kHalfRounding, so that kHalfRounding times it
+  // shared-exponent value at least rounding / kHalfRounding, so that kHalfRounding times it
   // bounds the rounding as it does for halves.
   double rounding_magnitude(int n, int g, int c, int q) const {
     const double v = std::abs(double(value(n, g, c, q)));
-    if (!shared_texel_node(n)) return v;
+    if (!shape_.shared_values()) return v;
     return std::max(v, rounding(n, g, c, q) / kHalfRounding);
   }
   // Bound code and bound of group g (< bounded_groups), channel c over quadrant q of node n
@@ -163,7 +169,7 @@ class PackedTreeView {
   // bound is its value's rounding.
   std::uint8_t bound_code(int n, int g, int c, int q) const {
     return reinterpret_cast<const std::uint8_t*>(
-        node(n) + 1 + 2 * shape_.groups * shape_.channels)[(g * shape_.channels + c) * 4 + q];
+        node(n) + 1 + shape_.value_words())[(g * shape_.channels + c) * 4 + q];
   }
   std::uint8_t bound_code(int n, int c, int q) const { return bound_code(n, 0, c, q); }
   float bound(int n, int g, int c, int q) const {
@@ -181,8 +187,6 @@ class PackedTreeView {
  private:
   PackedShape shape_;
   TreeScales scales_;
-  bool shared_texel_node(int n) const { return shape_.shared_texels() && is_texel_node(n); }
-
   std::span<const std::uint32_t> words_;
   int texel_start_ = 0, node_count_ = 0;
 };
@@ -206,10 +210,10 @@ struct PackedTree {
 PackedTree pack(const Quadtree& tree, BoundKind bounds = BoundKind::l2, int bounded_groups = 1);
 
 // The packed form of a tree whose texels are exact (a capture's: every single-texel quadrant's
-// bound is 0 in its source, std::invalid_argument otherwise): texel nodes hold values alone, as
-// shared-exponent words for an RGB tree of one group (its texels must then be >= 0,
-// std::invalid_argument otherwise), as halves for others or when asked.
+// bound is 0 in its source, std::invalid_argument otherwise): texel nodes hold values alone.
+// An RGB tree of one group holds its values as shared-exponent words (they must then be >= 0,
+// std::invalid_argument otherwise); other trees, or when asked, as halves.
 PackedTree pack_exact_texels(const Quadtree& tree, BoundKind bounds = BoundKind::l2,
-                             TexelEncoding encoding = TexelEncoding::shared_exponent);
+                             ValueEncoding encoding = ValueEncoding::shared_exponent);
 
 }  // namespace basis
