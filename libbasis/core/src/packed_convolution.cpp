@@ -68,6 +68,13 @@ class WeightedTree {
       m += std::abs(weight_[k]) * tree_.rounding_magnitude(n, k, c, q);
     return m;
   }
+  // The groups' rounding share (PackedTreeView::rounding_share), weighted.
+  double rounding_share(int n, int c, int q) const {
+    double m = 0;
+    for (int k = 0; k < count_; ++k)
+      m += std::abs(weight_[k]) * tree_.rounding_share(n, k, c, q);
+    return m;
+  }
   double total_weight() const { return total_weight_; }
   // Whether groups are combined: the function may then be negative.
   bool combined() const { return count_ > 1; }
@@ -104,7 +111,8 @@ auto packed_pair_bound(const WeightedTree& a, const PackedTreeView& b, double va
     // deviation from a).
     if (linf_b)
       product = std::min(product, sb * (abs_a + da + (a.combined() ? sa : 0)) + abs_a * db);
-    return product + kRoundingPerMagnitude * abs_a * abs_b;
+    return product +
+           kRoundingPerMagnitude * a.rounding_share(na, ca, q) * b.rounding_share(nb, 0, cb, q);
   };
 }
 
@@ -187,8 +195,10 @@ inline __m128 shared_channel(__m128i words, int c, __m128 steps) {
   return _mm_mul_ps(_mm_cvtepi32_ps(mantissas), steps);
 }
 
-// A shared-exponent value's rounding magnitude (PackedTreeView::rounding_magnitude) from its
-// value and step: at least half the step over kHalfRounding.
+// A shared-exponent value's rounding magnitude (PackedTreeView::rounding_magnitude),
+// max(value, step kSharedStepMagnitude), and its rounding share (rounding_share),
+// (value + step kSharedStepMagnitude) / 2: half the step over kHalfRounding is the step's
+// share.
 constexpr float kSharedStepMagnitude = float(0.5 / kHalfRounding);
 
 inline float lane_sum(__m128 v) {
@@ -396,10 +406,12 @@ struct NarrowPairs {
     __m128 vb[C], product[C], magnitude[C], term[C];
     for (int c = 0; c < C; ++c) {
       const int ca = CA == 1 ? 0 : c;
-      __m128 va, abs_a, sa;
+      __m128 va, abs_a, sa, share_a = _mm_setzero_ps();
       if (shared_a) {
         va = shared_channel(words_a, ca, steps_a);
-        abs_a = _mm_max_ps(va, _mm_mul_ps(steps_a, _mm_set1_ps(kSharedStepMagnitude)));
+        const __m128 step_share = _mm_mul_ps(steps_a, _mm_set1_ps(kSharedStepMagnitude));
+        abs_a = _mm_max_ps(va, step_share);
+        share_a = _mm_mul_ps(_mm_add_ps(va, step_share), _mm_set1_ps(0.5f));
         if constexpr (kTexelA)
           sa = _mm_mul_ps(steps_a, _mm_set1_ps(k.shared_bound_a));
         else
@@ -423,10 +435,12 @@ struct NarrowPairs {
         }
         if constexpr (kTexelA) sa = texel_bounds(abs_a, k.total_weight, k.texel_bound_a);
       }
-      __m128 sb, abs_b;
+      __m128 sb, abs_b, share_b = _mm_setzero_ps();
       if (shared_b) {
         vb[c] = shared_channel(words_b, c, steps_b);
-        abs_b = _mm_max_ps(vb[c], _mm_mul_ps(steps_b, _mm_set1_ps(kSharedStepMagnitude)));
+        const __m128 step_share = _mm_mul_ps(steps_b, _mm_set1_ps(kSharedStepMagnitude));
+        abs_b = _mm_max_ps(vb[c], step_share);
+        share_b = _mm_mul_ps(_mm_add_ps(vb[c], step_share), _mm_set1_ps(0.5f));
         if constexpr (kTexelB)
           sb = _mm_mul_ps(steps_b, _mm_set1_ps(k.shared_bound_b));
         else
@@ -440,7 +454,7 @@ struct NarrowPairs {
           sb = load_bound_codes(wb + k.codes_b + (CB == 1 ? 0 : c));
       }
       product[c] = _mm_mul_ps(va, vb[c]);
-      magnitude[c] = _mm_mul_ps(abs_a, abs_b);
+      magnitude[c] = _mm_mul_ps(shared_a ? share_a : abs_a, shared_b ? share_b : abs_b);
       term[c] = _mm_mul_ps(sa, sb);
       if constexpr (kLinfA || kLinfB)
         term[c] = linf_terms<kLinfA, kLinfB>(k, term[c], sa, sb, abs_a, abs_b);
@@ -584,18 +598,21 @@ struct WidePairs {
     const std::uint32_t* values_a = wa + (kTexelA ? 0 : 1);
     const std::uint32_t* values_b = wb + (kTexelB ? 0 : 1);
     const __m512 step_magnitude = _mm512_set1_ps(kSharedStepMagnitude);
-    __m512 va, abs_a, sa;
+    // share_a, share_b: the magnitudes the rounding terms scale with (rounding_share).
+    __m512 va, abs_a, sa, share_a;
     if (CA == 3 && GW == 1 && k.shared_a) {  // shared-exponent values
       __m512 steps;
       va = shared_values(values_a, steps);
-      abs_a = _mm512_maskz_max_ps(0xffff, va, _mm512_mul_ps(steps, step_magnitude));
+      const __m512 step_share = _mm512_mul_ps(steps, step_magnitude);
+      abs_a = _mm512_maskz_max_ps(0xffff, va, step_share);
+      share_a = _mm512_mul_ps(_mm512_add_ps(va, step_share), _mm512_set1_ps(0.5f));
       if constexpr (kTexelA)
         sa = _mm512_mul_ps(steps, _mm512_set1_ps(k.shared_bound_a));
       else
         sa = bounds(wa, CA, k.codes_a);
     } else if constexpr (GW == 1) {
       va = values(values_a, CA, 0);
-      abs_a = abs512(va);
+      share_a = abs_a = abs512(va);
       if constexpr (kTexelA)
         sa = texel_bounds(abs_a, 1, k.texel_bound_a);
       else
@@ -611,12 +628,15 @@ struct WidePairs {
                                sa);
       }
       if constexpr (kTexelA) sa = texel_bounds(abs_a, k.total_weight, k.texel_bound_a);
+      share_a = abs_a;
     }
-    __m512 vb, abs_b, sb;
+    __m512 vb, abs_b, sb, share_b;
     if (CB == 3 && k.shared_b) {  // shared-exponent values
       __m512 steps;
       vb = shared_values(values_b, steps);
-      abs_b = _mm512_maskz_max_ps(0xffff, vb, _mm512_mul_ps(steps, step_magnitude));
+      const __m512 step_share = _mm512_mul_ps(steps, step_magnitude);
+      abs_b = _mm512_maskz_max_ps(0xffff, vb, step_share);
+      share_b = _mm512_mul_ps(_mm512_add_ps(vb, step_share), _mm512_set1_ps(0.5f));
       if constexpr (kTexelB)
         sb = _mm512_mul_ps(steps, _mm512_set1_ps(k.shared_bound_b));
       else
@@ -628,8 +648,10 @@ struct WidePairs {
         sb = texel_bounds(abs_b, 1, k.texel_bound_b);
       else
         sb = bounds(wb, CB, k.codes_b);
+      share_b = abs_b;
     }
     const __m512 product = _mm512_mul_ps(va, vb);
+    const __m512 magnitude = _mm512_mul_ps(share_a, share_b);
     __m512 term = _mm512_mul_ps(sa, sb);
     if constexpr (kLinfA || kLinfB)
       term = linf_terms<kLinfA, kLinfB>(k, term, sa, sb, abs_a, abs_b);
@@ -638,9 +660,8 @@ struct WidePairs {
       if (GW == 1 && !k.shared_a && !k.shared_b)
         per_pair = _mm512_mul_ps(_mm512_set1_ps(k.per_product), abs512(product));
       else  // the rounding scales with the magnitudes (groups', or shared words'), not |a b|
-        per_pair = _mm512_sub_ps(
-            _mm512_mul_ps(_mm512_set1_ps(k.per_value), abs512(product)),
-            _mm512_mul_ps(_mm512_set1_ps(k.per_magnitude), _mm512_mul_ps(abs_a, abs_b)));
+        per_pair = _mm512_sub_ps(_mm512_mul_ps(_mm512_set1_ps(k.per_value), abs512(product)),
+                                 _mm512_mul_ps(_mm512_set1_ps(k.per_magnitude), magnitude));
       const __m512 allowed = _mm512_add_ps(
           per_pair,
           _mm512_setr_ps(k.allowed[0], k.allowed[0], k.allowed[0], k.allowed[0], k.allowed[1],
@@ -659,8 +680,8 @@ struct WidePairs {
           _mm512_mask_add_ps(sums.value[g], stop, sums.value[g],
                              _mm512_mul_ps(_mm512_mul_ps(values(values_a, CA, g), vb), area_v));
     sums.bound = _mm512_mask_add_ps(sums.bound, stop, sums.bound, _mm512_mul_ps(term, area_v));
-    sums.magnitude = _mm512_mask_add_ps(sums.magnitude, stop, sums.magnitude,
-                                        _mm512_mul_ps(_mm512_mul_ps(abs_a, abs_b), area_v));
+    sums.magnitude =
+        _mm512_mask_add_ps(sums.magnitude, stop, sums.magnitude, _mm512_mul_ps(magnitude, area_v));
     return internal;
   }
 };

@@ -214,10 +214,10 @@ TEST_P(PackedTrees, KeepTopologyValuesAndCertifiedBounds) {
             // Codes round up by at most one step of 2^-3 over the source bound and the move; an
             // exact texel's bound is the most its half (or its word) may have moved.
             if (p.is_texel_node(pn)) {
-              EXPECT_LE(p.bound(pn, c, pq),
-                        (shared ? rounding
-                                      : std::abs(pv) * 0x1p-11 + p.scales().value_scale * 0x1p-25) *
-                            (1 + 1e-5));
+              EXPECT_LE(
+                  p.bound(pn, c, pq),
+                  (shared ? rounding : std::abs(pv) * 0x1p-11 + p.scales().value_scale * 0x1p-25) *
+                      (1 + 1e-5));
               continue;
             }
             const double source = kind == BoundKind::l2
@@ -232,9 +232,9 @@ TEST_P(PackedTrees, KeepTopologyValuesAndCertifiedBounds) {
         double channel_sum = 0;
         for (int c = 0; c < channels; ++c)
           channel_sum += std::abs(integrate(tree.view(), 0, c));
-        EXPECT_NEAR(integrate(p, 0, 0), integrate(tree.view(), 0, 0),
-                    (shared ? channel_sum / 511.5 : 1e-3 * std::abs(integrate(tree.view(), 0, 0))) +
-                        1e-9);
+        EXPECT_NEAR(
+            integrate(p, 0, 0), integrate(tree.view(), 0, 0),
+            (shared ? channel_sum / 511.5 : 1e-3 * std::abs(integrate(tree.view(), 0, 0))) + 1e-9);
       }
   }
 }

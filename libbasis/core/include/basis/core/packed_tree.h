@@ -159,6 +159,15 @@ class PackedTreeView {
   // The magnitude the rounding terms of a convolution scale with: |value|, or for a
   // shared-exponent value at least rounding / kHalfRounding, so that kHalfRounding times it
   // bounds the rounding as it does for halves.
+  // The magnitude whose product with the other tree's, times 2 kHalfRounding, bounds both
+  // rounding terms of a convolution, |a| db + |b| da: |value| for halves, (|value| + rounding /
+  // kHalfRounding) / 2 for a shared-exponent value (for two of them the product's cross terms
+  // make up the difference, a value being at most 511 steps).
+  double rounding_share(int n, int g, int c, int q) const {
+    const double v = std::abs(double(value(n, g, c, q)));
+    if (!shape_.shared_values()) return v;
+    return (v + rounding(n, g, c, q) / kHalfRounding) / 2;
+  }
   double rounding_magnitude(int n, int g, int c, int q) const {
     const double v = std::abs(double(value(n, g, c, q)));
     if (!shape_.shared_values()) return v;
