@@ -218,6 +218,10 @@ PYBIND11_MODULE(basis, m) {
                              [](const Tree& t) { return t.view.scales().bound_scale; })
       .def_property_readonly("texel_start", [](const Tree& t) { return t.view.texel_start(); })
       .def_property_readonly(
+          "shared_values", [](const Tree& t) { return t.view.shape().shared_values(); },
+          "Whether the nodes hold their values as shared-exponent words, one per quadrant (RGB "
+          "captures since format 6), rather than halves.")
+      .def_property_readonly(
           "words",
           [](py::object self) {
             const Tree& t = self.cast<const Tree&>();

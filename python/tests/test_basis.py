@@ -71,6 +71,7 @@ def test_tree_words_are_the_nodes_in_place():
     assert tree.texel_start == tree.node_count  # no texel nodes of values alone
     assert words.shape == (tree.node_count, tree.words_per_node)
     assert tree.texel_words.shape[0] == 0
+    assert not tree.shared_values  # a projected tree's values are halves
     assert not words.flags.writeable
     assert words.base is not None  # a view, kept alive by the tree
     assert np.array_equal(tree.words, words)
@@ -129,6 +130,7 @@ def test_files_written_here_are_read_by_the_tools(made_by_tools, tmp_path):
         # Captures' texels are exact: their texel nodes hold a shared-exponent word per texel.
         tree = captures.tree(k)
         assert tree.texel_words.shape == (tree.node_count - tree.texel_start, 4)
+        assert tree.shared_values
     # The tools' full-resolution reference reads the recipe written here.
     tool("qtconvolve", tmp_path / "t.qt", tmp_path / "c.qt", "--reference", "-q")
 
