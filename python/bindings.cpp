@@ -198,9 +198,11 @@ PYBIND11_MODULE(basis, m) {
     }
   });
 
-  py::class_<Tree>(m, "Tree",
-                   "A packed quadtree over the unit square (the cosine-weighted concentric map): "
-                   "half-float quadrant values scaled per tree, 8-bit certified bounds.")
+  py::class_<Tree>(
+      m, "Tree",
+      "A packed quadtree over the unit square (the cosine-weighted concentric map): "
+      "quadrant values scaled per tree (half floats, or shared-exponent words in RGB captures), "
+      "8-bit certified bounds.")
       .def_property_readonly("resolution", [](const Tree& t) { return t.view.shape().resolution; })
       .def_property_readonly("channels", [](const Tree& t) { return t.view.shape().channels; })
       .def_property_readonly("groups", [](const Tree& t) { return t.view.shape().groups; })
@@ -234,7 +236,7 @@ PYBIND11_MODULE(basis, m) {
             return a;
           },
           "The full nodes without a copy: an array of texel_start x words_per_node 32-bit words "
-          "(link, half values, bound codes; README, the .qt file format). Every node but the "
+          "(link, values, bound codes; README, the .qt file format). Every node but the "
           "texel nodes of trees with exact texels (texel_words).")
       .def_property_readonly(
           "texel_words",

@@ -2,8 +2,8 @@
 # The sanitizer build in ./build-asan, after the set-up (which installs clang): clang,
 # AddressSanitizer + UndefinedBehaviorSanitizer on everything, and the libFuzzer targets (the
 # readers' sources carry fuzzer coverage). Without AVX-512: the convolution takes the SSE4.1
-# path of CPUs that lack it, which the Release build (AVX-512 where the machine has it) does not. The tests run from it (scripts/test.sh) and so do
-# the fuzz targets (scripts/fuzz.sh).
+# path of CPUs that lack it, which the Release build (AVX-512 where the machine has it) does
+# not. The tests run from it (scripts/test.sh) and so do the fuzz targets (scripts/fuzz.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # Line tables only: reports keep file and line, and the build is faster than with full -g.

@@ -357,7 +357,7 @@ TreeSetView QtFile::verify_packed_trees(const void* set_pointer, const std::stri
       bounded_groups, exact_texels};
   if (version_ >= 6 && set->value_encoding() != fb::ValueEncoding::Halves) {
     if (set->value_encoding() != fb::ValueEncoding::SharedExponent)
-      fail(name_, what + ": unknown texel encoding " + std::to_string(int(set->value_encoding())));
+      fail(name_, what + ": unknown value encoding " + std::to_string(int(set->value_encoding())));
     if (!exact_texels || s.channels != 3 || s.groups != 1)
       fail(name_, what + ": shared-exponent values need exact texels, 3 channels and one group");
     shape.value_encoding = ValueEncoding::shared_exponent;

@@ -622,7 +622,7 @@ TEST(QtFormat, SharedExponentValuesLoadInPlaceAndVersion5TreesStillLoad) {
   const TreeExtent shared_extent = whole_tree(shared);
   EXPECT_NE(load_error(unchecked_file(TreeSetView(shared.shape, {&shared_extent, 1}, shared.words),
                                       nullptr, 0, kQtFormatVersion, 1, 7))
-                .find("unknown texel encoding 7"),
+                .find("unknown value encoding 7"),
             std::string::npos);
   const PackedTree grey = pack_exact_texels(sample_float_tree(32, 1, 0, 0.0));
   const TreeExtent grey_extent = whole_tree(grey);

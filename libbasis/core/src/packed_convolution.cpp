@@ -93,7 +93,8 @@ class WeightedTree {
 // largest-deviation terms hold for B >= 0 and A >= 0 respectively), the
 // rounding terms kRoundingPerMagnitude |a b| here and kRoundingFloor (times the value scales)
 // once for the whole descent. For weighted groups |a| is their magnitude (WeightedTree); for
-// shared-exponent values, |a| and |b| are their rounding magnitudes (PackedTreeView).
+// shared-exponent values the rounding terms take their rounding shares, and the
+// largest-deviation terms their rounding magnitudes, in place of |a| and |b| (PackedTreeView).
 auto packed_pair_bound(const WeightedTree& a, const PackedTreeView& b, double value_scale_a) {
   const bool linf_a = a.shape().bounds == BoundKind::linf;
   const bool linf_b = b.shape().bounds == BoundKind::linf;
@@ -242,7 +243,7 @@ struct DescentConstants {
   float per_product;
   // Weighted descents and shared-exponent values: term <= per_value |a b| - per_magnitude
   // |a|' |b|' + allowed[c], |a|' and |b|' the magnitudes the rounding scales with (sum_g
-  // |w_g a_g|, or a shared word's rounding magnitude).
+  // |w_g a_g|, or a shared word's rounding share).
   float per_value, per_magnitude;
   float allowed[C];
 

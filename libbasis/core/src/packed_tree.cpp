@@ -57,7 +57,7 @@ PackedTree pack_tree(const Quadtree& tree, BoundKind bounds, int bounded_groups,
   double largest_bound = 0;
   for (int n = 0; n < count; ++n) {
     std::uint32_t* w = values.data() + std::size_t(n) * value_words;
-    auto* h = reinterpret_cast<std::uint16_t*>(w);
+    std::array<std::uint16_t, 4 * 3 * 3> h{};  // halves: at most 3 groups of 3 channels
     if (shared)
       for (int q = 0; q < 4; ++q) {
         std::array<float, 3> rgb;
@@ -87,6 +87,7 @@ PackedTree pack_tree(const Quadtree& tree, BoundKind bounds, int bounded_groups,
           moved_bounds[std::size_t(n) * bounds_per_node + (g * s.channels + c) * 4 + q] = b;
           largest_bound = std::max(largest_bound, b);
         }
+    if (!shared) std::memcpy(w, h.data(), value_words * sizeof(std::uint32_t));
   }
   float bound_scale = float(largest_bound);
   if (double(bound_scale) < largest_bound) bound_scale = std::nextafter(bound_scale, INFINITY);

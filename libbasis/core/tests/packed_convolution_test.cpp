@@ -33,17 +33,24 @@ TEST_P(PackedConvolution, WithinTheBoundOfTheTexelsAndHalfPrecisionOfTheTrees) {
   const Shapes k = GetParam();
   const auto fa = test_functions(k.res_a, k.channels_a, 31);
   const auto fb = test_functions(k.res_b, k.channels_b, 32);
-  for (const ValueEncoding encoding : {ValueEncoding::halves, ValueEncoding::shared_exponent})
+  // Variants: values in halves; in shared-exponent words (RGB trees with exact texels); the same
+  // with the other arrangement of exact texels against bound kinds.
+  for (const int variant : {0, 1, 2})
     for (const BoundKind kind_a : {BoundKind::l2, BoundKind::linf})
       for (const BoundKind kind_b : {BoundKind::l2, BoundKind::linf})
         for (const auto& [name_a, grid_a] : fa)
           for (const auto& [name_b, grid_b] : fb) {
             const std::string what = name_a + " x " + name_b + " kinds " +
                                      std::to_string(int(kind_a)) + std::to_string(int(kind_b)) +
-                                     " texels " + std::to_string(int(encoding));
+                                     " variant " + std::to_string(variant);
             // Texel nodes of values alone (exact texels) on either side, or both, or neither,
-            // one arrangement per pair of kinds; in halves, or RGB in shared-exponent words.
-            const bool exact_a = kind_a == BoundKind::linf, exact_b = kind_b == BoundKind::l2;
+            // one arrangement per pair of kinds and its opposite; in halves, or RGB in
+            // shared-exponent words.
+            const ValueEncoding encoding =
+                variant == 0 ? ValueEncoding::halves : ValueEncoding::shared_exponent;
+            const bool flip = variant == 2;
+            const bool exact_a = (kind_a == BoundKind::linf) != flip;
+            const bool exact_b = (kind_b == BoundKind::l2) != flip;
             const Quadtree tree_a = project(grid_a, {.tolerance = 0.1});
             const Quadtree tree_b = project(grid_b, {.tolerance = 0.1});
             const PackedTree a =

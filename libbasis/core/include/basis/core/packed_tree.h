@@ -156,9 +156,6 @@ class PackedTreeView {
     return kHalfRounding * std::abs(double(value(n, g, c, q))) +
            kHalfSubnormalRounding * double(scales_.value_scale);
   }
-  // The magnitude the rounding terms of a convolution scale with: |value|, or for a
-  // shared-exponent value at least rounding / kHalfRounding, so that kHalfRounding times it
-  // bounds the rounding as it does for halves.
   // The magnitude whose product with the other tree's, times 2 kHalfRounding, bounds both
   // rounding terms of a convolution, |a| db + |b| da: |value| for halves, (|value| + rounding /
   // kHalfRounding) / 2 for a shared-exponent value (for two of them the product's cross terms
@@ -168,6 +165,8 @@ class PackedTreeView {
     if (!shape_.shared_values()) return v;
     return (v + rounding(n, g, c, q) / kHalfRounding) / 2;
   }
+  // A magnitude at least |value| and at least rounding / kHalfRounding: |value| for halves,
+  // so that kHalfRounding times it bounds the rounding (the largest-deviation alternatives).
   double rounding_magnitude(int n, int g, int c, int q) const {
     const double v = std::abs(double(value(n, g, c, q)));
     if (!shape_.shared_values()) return v;
