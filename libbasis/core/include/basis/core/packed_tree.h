@@ -43,12 +43,12 @@ struct PackedShape {
   BoundKind bounds = BoundKind::l2;
   int bounded_groups = 1;  // groups 0 .. bounded_groups - 1 carry bounds (1..groups)
   // Whether texel nodes (at depth texel_depth(), their quadrants single texels) hold only their
-  // values: texels are exact, up to their halves' rounding.
+  // values: texels are exact, up to their values' rounding.
   bool exact_texels = false;
   ValueEncoding value_encoding = ValueEncoding::halves;
 
-  // 32-bit words per node: the link, the half-float values (groups x channels x 4 quadrants)
-  // and the bound codes (bounded_groups x channels x 4 bytes).
+  // 32-bit words per node: the link, the values (groups x channels x 4 quadrants of halves, or
+  // 4 shared-exponent words) and the bound codes (bounded_groups x channels x 4 bytes).
   int words_per_node() const { return 1 + value_words() + bounded_groups * channels; }
   // 32-bit words of a node's values.
   int value_words() const { return shared_values() ? 4 : 2 * groups * channels; }
