@@ -383,6 +383,38 @@ struct NarrowPairs {
                       _mm_set1_ps(scale));
   }
 
+  // One channel of one group of a side of a pair, four quadrants: its values, the magnitude the
+  // largest-deviation terms take (|v|, or a shared word's rounding magnitude), the rounding
+  // share, and its bounds (codes, or an exact texel's rounding).
+  struct Side {
+    __m128 value, magnitude, share, bound;
+  };
+  // Channel c of the node at w (a texel node with kTexel), from its shared-exponent words and
+  // their steps (loaded once per node) when shared, else from its halves.
+  template <bool kTexel>
+  static Side one_channel(const std::uint32_t* w, int c, bool shared, __m128i words, __m128 steps,
+                          std::size_t codes, float texel_bound, float shared_bound) {
+    Side s;
+    if (shared) {
+      s.value = shared_channel(words, c, steps);
+      const __m128 step_share = _mm_mul_ps(steps, _mm_set1_ps(kSharedStepMagnitude));
+      s.magnitude = _mm_max_ps(s.value, step_share);
+      s.share = _mm_mul_ps(_mm_add_ps(s.value, step_share), _mm_set1_ps(0.5f));
+      if constexpr (kTexel)
+        s.bound = _mm_mul_ps(steps, _mm_set1_ps(shared_bound));
+      else
+        s.bound = load_bound_codes(w + codes + c);
+      return s;
+    }
+    s.value = load_halves(w + (kTexel ? 0 : 1) + 2 * c);
+    s.share = s.magnitude = abs_ps(s.value);
+    if constexpr (kTexel)
+      s.bound = texel_bounds(s.magnitude, 1, texel_bound);
+    else
+      s.bound = load_bound_codes(w + codes + c);
+    return s;
+  }
+
   // Adds the pair's quadrants that stop (leaves, or within the accuracy target) and returns
   // the internal quadrants that go on. kTexelA, kTexelB: the node of a, of b, is a texel node of
   // exact texels, values alone.
@@ -407,58 +439,34 @@ struct NarrowPairs {
     __m128 vb[C], product[C], magnitude[C], term[C];
     for (int c = 0; c < C; ++c) {
       const int ca = CA == 1 ? 0 : c;
-      __m128 va, abs_a, sa, share_a = _mm_setzero_ps();
-      if (shared_a) {
-        va = shared_channel(words_a, ca, steps_a);
-        const __m128 step_share = _mm_mul_ps(steps_a, _mm_set1_ps(kSharedStepMagnitude));
-        abs_a = _mm_max_ps(va, step_share);
-        share_a = _mm_mul_ps(_mm_add_ps(va, step_share), _mm_set1_ps(0.5f));
-        if constexpr (kTexelA)
-          sa = _mm_mul_ps(steps_a, _mm_set1_ps(k.shared_bound_a));
-        else
-          sa = load_bound_codes(wa + k.codes_a + ca);
-      } else if constexpr (GW == 1) {
-        va = load_halves(values_a + 2 * ca);
-        abs_a = abs_ps(va);
-        if constexpr (kTexelA)
-          sa = texel_bounds(abs_a, 1, k.texel_bound_a);
-        else
-          sa = load_bound_codes(wa + k.codes_a + ca);
+      Side a;
+      if constexpr (GW == 1) {
+        a = one_channel<kTexelA>(wa, ca, shared_a, words_a, steps_a, k.codes_a, k.texel_bound_a,
+                                 k.shared_bound_a);
       } else {
-        va = abs_a = sa = _mm_setzero_ps();
+        a.value = a.magnitude = a.bound = _mm_setzero_ps();
         for (int g = 0; g < GW; ++g) {
           const __m128 v = load_halves(values_a + 2 * (g * CA + ca));
-          va = _mm_add_ps(va, _mm_mul_ps(_mm_set1_ps(k.weight[g]), v));
-          abs_a = _mm_add_ps(abs_a, _mm_mul_ps(_mm_set1_ps(k.abs_weight[g]), abs_ps(v)));
+          a.value = _mm_add_ps(a.value, _mm_mul_ps(_mm_set1_ps(k.weight[g]), v));
+          a.magnitude =
+              _mm_add_ps(a.magnitude, _mm_mul_ps(_mm_set1_ps(k.abs_weight[g]), abs_ps(v)));
           if constexpr (!kTexelA)
-            sa = _mm_add_ps(sa, _mm_mul_ps(_mm_set1_ps(k.abs_weight[g]),
-                                           load_bound_codes(wa + k.codes_a + g * CA + ca)));
+            a.bound =
+                _mm_add_ps(a.bound, _mm_mul_ps(_mm_set1_ps(k.abs_weight[g]),
+                                               load_bound_codes(wa + k.codes_a + g * CA + ca)));
         }
-        if constexpr (kTexelA) sa = texel_bounds(abs_a, k.total_weight, k.texel_bound_a);
+        if constexpr (kTexelA) a.bound = texel_bounds(a.magnitude, k.total_weight, k.texel_bound_a);
+        a.share = a.magnitude;
       }
-      __m128 sb, abs_b, share_b = _mm_setzero_ps();
-      if (shared_b) {
-        vb[c] = shared_channel(words_b, c, steps_b);
-        const __m128 step_share = _mm_mul_ps(steps_b, _mm_set1_ps(kSharedStepMagnitude));
-        abs_b = _mm_max_ps(vb[c], step_share);
-        share_b = _mm_mul_ps(_mm_add_ps(vb[c], step_share), _mm_set1_ps(0.5f));
-        if constexpr (kTexelB)
-          sb = _mm_mul_ps(steps_b, _mm_set1_ps(k.shared_bound_b));
-        else
-          sb = load_bound_codes(wb + k.codes_b + c);
-      } else {
-        vb[c] = load_halves(values_b + 2 * (CB == 1 ? 0 : c));
-        abs_b = abs_ps(vb[c]);
-        if constexpr (kTexelB)
-          sb = texel_bounds(abs_b, 1, k.texel_bound_b);
-        else
-          sb = load_bound_codes(wb + k.codes_b + (CB == 1 ? 0 : c));
-      }
-      product[c] = _mm_mul_ps(va, vb[c]);
-      magnitude[c] = _mm_mul_ps(shared_a ? share_a : abs_a, shared_b ? share_b : abs_b);
-      term[c] = _mm_mul_ps(sa, sb);
+      const Side b = one_channel<kTexelB>(wb, CB == 1 ? 0 : c, shared_b, words_b, steps_b,
+                                          k.codes_b, k.texel_bound_b, k.shared_bound_b);
+      vb[c] = b.value;
+      product[c] = _mm_mul_ps(a.value, b.value);
+      magnitude[c] = _mm_mul_ps(a.share, b.share);
+      term[c] = _mm_mul_ps(a.bound, b.bound);
       if constexpr (kLinfA || kLinfB)
-        term[c] = linf_terms<kLinfA, kLinfB>(k, term[c], sa, sb, abs_a, abs_b);
+        term[c] =
+            linf_terms<kLinfA, kLinfB>(k, term[c], a.bound, b.bound, a.magnitude, b.magnitude);
     }
     if (k.targeted) {
       __m128 enough = _mm_castsi128_ps(_mm_set1_epi32(-1));
@@ -593,69 +601,68 @@ struct WidePairs {
         _mm512_set1_ps(scale));
   }
 
+  // One group of a side of a pair, all channels in 12 lanes: its values, the magnitude the
+  // largest-deviation terms take (|v|, or a shared word's rounding magnitude), the rounding
+  // share, and its bounds (codes, or an exact texel's rounding).
+  struct Side {
+    __m512 value, magnitude, share, bound;
+  };
+  // Group 0 of the node at w (a texel node with kTexel), from its shared-exponent words when
+  // shared, else from its halves.
+  template <bool kTexel>
+  static Side one_group(const std::uint32_t* w, int channels, bool shared, std::size_t codes,
+                        float texel_bound, float shared_bound) {
+    const std::uint32_t* values_at = w + (kTexel ? 0 : 1);
+    Side s;
+    if (shared) {
+      __m512 steps;
+      s.value = shared_values(values_at, steps);
+      const __m512 step_share = _mm512_mul_ps(steps, _mm512_set1_ps(kSharedStepMagnitude));
+      s.magnitude = _mm512_maskz_max_ps(0xffff, s.value, step_share);
+      s.share = _mm512_mul_ps(_mm512_add_ps(s.value, step_share), _mm512_set1_ps(0.5f));
+      if constexpr (kTexel)
+        s.bound = _mm512_mul_ps(steps, _mm512_set1_ps(shared_bound));
+      else
+        s.bound = bounds(w, channels, codes);
+      return s;
+    }
+    s.value = values(values_at, channels, 0);
+    s.share = s.magnitude = abs512(s.value);
+    if constexpr (kTexel)
+      s.bound = texel_bounds(s.magnitude, 1, texel_bound);
+    else
+      s.bound = bounds(w, channels, codes);
+    return s;
+  }
+
   template <bool kTexelA, bool kTexelB>
   static unsigned visit(const DescentConstants<CA, CB>& k, const std::uint32_t* wa,
                         const std::uint32_t* wb, unsigned internal, float area, Sums& sums) {
     const std::uint32_t* values_a = wa + (kTexelA ? 0 : 1);
-    const std::uint32_t* values_b = wb + (kTexelB ? 0 : 1);
-    const __m512 step_magnitude = _mm512_set1_ps(kSharedStepMagnitude);
-    // share_a, share_b: the magnitudes the rounding terms scale with (rounding_share).
-    __m512 va, abs_a, sa, share_a;
-    if (CA == 3 && GW == 1 && k.shared_a) {  // shared-exponent values
-      __m512 steps;
-      va = shared_values(values_a, steps);
-      const __m512 step_share = _mm512_mul_ps(steps, step_magnitude);
-      abs_a = _mm512_maskz_max_ps(0xffff, va, step_share);
-      share_a = _mm512_mul_ps(_mm512_add_ps(va, step_share), _mm512_set1_ps(0.5f));
-      if constexpr (kTexelA)
-        sa = _mm512_mul_ps(steps, _mm512_set1_ps(k.shared_bound_a));
-      else
-        sa = bounds(wa, CA, k.codes_a);
-    } else if constexpr (GW == 1) {
-      va = values(values_a, CA, 0);
-      share_a = abs_a = abs512(va);
-      if constexpr (kTexelA)
-        sa = texel_bounds(abs_a, 1, k.texel_bound_a);
-      else
-        sa = bounds(wa, CA, k.codes_a);
+    Side a;
+    if constexpr (GW == 1) {
+      a = one_group<kTexelA>(wa, CA, CA == 3 && k.shared_a, k.codes_a, k.texel_bound_a,
+                             k.shared_bound_a);
     } else {
-      va = abs_a = sa = _mm512_setzero_ps();
+      a.value = a.magnitude = a.bound = _mm512_setzero_ps();
       for (int g = 0; g < GW; ++g) {
         const __m512 v = values(values_a, CA, g);
-        va = _mm512_fmadd_ps(_mm512_set1_ps(k.weight[g]), v, va);
-        abs_a = _mm512_fmadd_ps(_mm512_set1_ps(k.abs_weight[g]), abs512(v), abs_a);
+        a.value = _mm512_fmadd_ps(_mm512_set1_ps(k.weight[g]), v, a.value);
+        a.magnitude = _mm512_fmadd_ps(_mm512_set1_ps(k.abs_weight[g]), abs512(v), a.magnitude);
         if constexpr (!kTexelA)
-          sa = _mm512_fmadd_ps(_mm512_set1_ps(k.abs_weight[g]), bounds(wa, CA, k.codes_a + g * CA),
-                               sa);
+          a.bound = _mm512_fmadd_ps(_mm512_set1_ps(k.abs_weight[g]),
+                                    bounds(wa, CA, k.codes_a + g * CA), a.bound);
       }
-      if constexpr (kTexelA) sa = texel_bounds(abs_a, k.total_weight, k.texel_bound_a);
-      share_a = abs_a;
+      if constexpr (kTexelA) a.bound = texel_bounds(a.magnitude, k.total_weight, k.texel_bound_a);
+      a.share = a.magnitude;
     }
-    __m512 vb, abs_b, sb, share_b;
-    if (CB == 3 && k.shared_b) {  // shared-exponent values
-      __m512 steps;
-      vb = shared_values(values_b, steps);
-      const __m512 step_share = _mm512_mul_ps(steps, step_magnitude);
-      abs_b = _mm512_maskz_max_ps(0xffff, vb, step_share);
-      share_b = _mm512_mul_ps(_mm512_add_ps(vb, step_share), _mm512_set1_ps(0.5f));
-      if constexpr (kTexelB)
-        sb = _mm512_mul_ps(steps, _mm512_set1_ps(k.shared_bound_b));
-      else
-        sb = bounds(wb, CB, k.codes_b);
-    } else {
-      vb = values(values_b, CB, 0);
-      abs_b = abs512(vb);
-      if constexpr (kTexelB)
-        sb = texel_bounds(abs_b, 1, k.texel_bound_b);
-      else
-        sb = bounds(wb, CB, k.codes_b);
-      share_b = abs_b;
-    }
-    const __m512 product = _mm512_mul_ps(va, vb);
-    const __m512 magnitude = _mm512_mul_ps(share_a, share_b);
-    __m512 term = _mm512_mul_ps(sa, sb);
+    const Side b = one_group<kTexelB>(wb, CB, CB == 3 && k.shared_b, k.codes_b, k.texel_bound_b,
+                                      k.shared_bound_b);
+    const __m512 product = _mm512_mul_ps(a.value, b.value);
+    const __m512 magnitude = _mm512_mul_ps(a.share, b.share);
+    __m512 term = _mm512_mul_ps(a.bound, b.bound);
     if constexpr (kLinfA || kLinfB)
-      term = linf_terms<kLinfA, kLinfB>(k, term, sa, sb, abs_a, abs_b);
+      term = linf_terms<kLinfA, kLinfB>(k, term, a.bound, b.bound, a.magnitude, b.magnitude);
     if (k.targeted) {
       __m512 per_pair;
       if (GW == 1 && !k.shared_a && !k.shared_b)
@@ -677,9 +684,9 @@ struct WidePairs {
     sums.value[0] =
         _mm512_mask_add_ps(sums.value[0], stop, sums.value[0], _mm512_mul_ps(product, area_v));
     for (int g = 1; g < GA; ++g)
-      sums.value[g] =
-          _mm512_mask_add_ps(sums.value[g], stop, sums.value[g],
-                             _mm512_mul_ps(_mm512_mul_ps(values(values_a, CA, g), vb), area_v));
+      sums.value[g] = _mm512_mask_add_ps(
+          sums.value[g], stop, sums.value[g],
+          _mm512_mul_ps(_mm512_mul_ps(values(values_a, CA, g), b.value), area_v));
     sums.bound = _mm512_mask_add_ps(sums.bound, stop, sums.bound, _mm512_mul_ps(term, area_v));
     sums.magnitude =
         _mm512_mask_add_ps(sums.magnitude, stop, sums.magnitude, _mm512_mul_ps(magnitude, area_v));
