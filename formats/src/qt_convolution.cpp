@@ -73,6 +73,10 @@ FileConvolution::FileConvolution(const QtFile& a, const QtFile& b, const Shading
       warning_ = std::string(e.what()) + "; directional lights use the table's texels";
     }
   }
+  // An untilted lookup reads the same entries at every point: found once.
+  if (table_ && !shading_.normal && shading_.wo.z() >= 0 && shading_.wo.allFinite() &&
+      shading_.wo.norm() > 0)
+    taps_ = lookup_taps(table_->brdf_table(), shading_.wo.normalized(), shading_.interpolation);
   if (evaluation == Evaluation::dense) {
     if (shading_.normal)
       throw std::invalid_argument("dense evaluation takes untilted lookups only (no --normal)");
@@ -104,7 +108,11 @@ Convolution FileConvolution::operator()(std::size_t k) const {
   }
   if (table_) {
     if (other_->kind() == QtKind::capture_set)
-      return shade(table_->brdf_table(), shaded_captures(), k, shading_);
+      return taps_ ? shade(table_->brdf_table(), *taps_, shaded_captures(), k, shading_)
+                   : shade(table_->brdf_table(), shaded_captures(), k, shading_);
+    if (taps_)
+      return reflect(table_->brdf_table(), *taps_, shaded_captures().trees.tree(k),
+                     shading_.convolution);
     return reflect(table_->brdf_table(), shaded_captures().trees.tree(k), shading_.wo,
                    {shading_.convolution, shading_.interpolation});
   }

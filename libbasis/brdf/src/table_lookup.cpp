@@ -45,9 +45,14 @@ Convolution interpolate(const std::array<TableTap, 4>& taps, Entry entry) {
 
 Convolution reflect(const BrdfTableView& table, const PackedTreeView& radiance, const Vec3& wo,
                     const LookupOptions& options) {
-  return interpolate(lookup_taps(table, wo, options.interpolation), [&](const TableTap& tap) {
-    return convolve_tap(table, tap, radiance, options.convolution);
-  });
+  return reflect(table, lookup_taps(table, wo, options.interpolation), radiance,
+                 options.convolution);
+}
+
+Convolution reflect(const BrdfTableView& table, const std::array<TableTap, 4>& taps,
+                    const PackedTreeView& radiance, const ConvolutionOptions& options) {
+  return interpolate(
+      taps, [&](const TableTap& tap) { return convolve_tap(table, tap, radiance, options); });
 }
 
 Convolution reflect_tilted(const BrdfTableView& table, const PackedTreeView& radiance,

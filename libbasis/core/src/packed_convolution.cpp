@@ -294,17 +294,29 @@ struct DescentConstants {
     per_product = float((accuracy / 2 - kRoundingPerMagnitude) * values_in_bound_units);
     per_value = float(accuracy / 2 * values_in_bound_units);
     per_magnitude = float(kRoundingPerMagnitude * values_in_bound_units);
-    // The roots' product E, from their values (scaled, so in units of value_scale).
+    // The roots' product E, from their values (without the scales, as the sums); a full
+    // descent never reads it.
+    for (int c = 0; c < C; ++c)
+      allowed[c] = 0;
+    if (!targeted) return;
+    const int groups_a = weights.empty() ? 1 : int(weights.size());
     for (int c = 0; c < C; ++c) {
-      double product = 0;
-      for (int q = 0; q < 4; ++q) {
-        double root_a = 0;
-        for (int g = 0; g < (weights.empty() ? 1 : int(weights.size())); ++g)
-          root_a += double(weight[g]) * ta.value(0, g, CA == 1 ? 0 : c, q);
-        product += std::abs(root_a * tb.value(0, 0, CB == 1 ? 0 : c, q));
-      }
-      allowed[c] = float(accuracy / 2 * (product / 4) / value_scale * values_in_bound_units);
+      __m128 root_a = _mm_setzero_ps();
+      for (int g = 0; g < groups_a; ++g)
+        root_a = _mm_add_ps(
+            root_a, _mm_mul_ps(_mm_set1_ps(weight[g]), root_quadrants(ta, g, CA == 1 ? 0 : c)));
+      const float product =
+          lane_sum(abs_ps(_mm_mul_ps(root_a, root_quadrants(tb, 0, CB == 1 ? 0 : c))));
+      allowed[c] = float(accuracy / 2 * (double(product) / 4) * values_in_bound_units);
     }
+  }
+
+  // Channel c of group g of the root's four quadrants, without the value scale.
+  static __m128 root_quadrants(const PackedTreeView& t, int g, int c) {
+    const std::uint32_t* values = t.node(0) + (t.is_texel_node(0) ? 0 : 1);
+    if (!t.shape().shared_values()) return load_halves(values + 2 * (g * t.shape().channels + c));
+    const __m128i words = _mm_loadu_si128(reinterpret_cast<const __m128i*>(values));
+    return shared_channel(words, c, shared_steps(words));
   }
 };
 

@@ -52,31 +52,16 @@ Rgb reflect_lights(std::span<const DirectionalLight> lights, const Frame& record
   return result.value;
 }
 
-Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, std::size_t k,
-                  const ShadingOptions& options) {
-  if (!(options.wo.z() >= 0)) throw std::invalid_argument("outgoing direction below the horizon");
-  const PackedTreeView radiance = captures.trees.tree(k);
-  const Vec3 wo = options.wo.normalized();
-  Convolution result;
-  std::optional<Frame> record, shading;
-  const LookupOptions lookup{options.convolution, options.interpolation};
-  if (!options.normal) {
-    result = reflect(table, radiance, wo, lookup);
-  } else {
-    const Tilt tilt = capture_tilt(captures, k, *options.normal);
-    result = reflect_tilted(table, radiance, wo, tilt, options.tilt_mode, lookup);
-    if (options.tilt_mode != TiltCompensation::none) {
-      record = captures.frame(k);
-      shading = tilted_frame(*record, tilt);
-    }
-  }
-  const auto lights = captures.lights_of(k);
-  if (lights.empty()) return result;
-  // The entries around wo, read only when the lights take f from the table.
-  const auto taps = options.light_brdf ? std::array<TableTap, 4>{}
-                                       : lookup_taps(table, wo, options.interpolation);
+namespace {
+
+// Adds capture k's directional lights to a lookup's result (see shade): f from
+// options.light_brdf, else from the table's entries `taps` around wo.
+void add_capture_lights(const BrdfTableView& table, const std::array<TableTap, 4>& taps,
+                        const CaptureSetView& captures, std::size_t k,
+                        const std::optional<Frame>& record, const std::optional<Frame>& shading,
+                        const Vec3& wo, const ShadingOptions& options, Convolution& result) {
   const int table_channels = table.trees.shape().channels;
-  add_lights(lights, record, shading, wo, options.light_brdf, result,
+  add_lights(captures.lights_of(k), record, shading, wo, options.light_brdf, result,
              [&](const Vec3& wi, Color& f, Color& error) {
                const Vec2 uv = cosine_hemisphere_to_square(wi);
                for (const TableTap& tap : taps) {
@@ -93,6 +78,41 @@ Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, st
                    }
                }
              });
+}
+
+}  // namespace
+
+Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, std::size_t k,
+                  const ShadingOptions& options) {
+  if (!(options.wo.z() >= 0)) throw std::invalid_argument("outgoing direction below the horizon");
+  const Vec3 wo = options.wo.normalized();
+  if (!options.normal)
+    return shade(table, lookup_taps(table, wo, options.interpolation), captures, k, options);
+  const Tilt tilt = capture_tilt(captures, k, *options.normal);
+  Convolution result = reflect_tilted(table, captures.trees.tree(k), wo, tilt, options.tilt_mode,
+                                      {options.convolution, options.interpolation});
+  if (captures.lights_of(k).empty()) return result;
+  std::optional<Frame> record, shading;
+  if (options.tilt_mode != TiltCompensation::none) {
+    record = captures.frame(k);
+    shading = tilted_frame(*record, tilt);
+  }
+  // The entries around wo, read only when the lights take f from the table.
+  const auto taps = options.light_brdf ? std::array<TableTap, 4>{}
+                                       : lookup_taps(table, wo, options.interpolation);
+  add_capture_lights(table, taps, captures, k, record, shading, wo, options, result);
+  return result;
+}
+
+Convolution shade(const BrdfTableView& table, const std::array<TableTap, 4>& taps,
+                  const CaptureSetView& captures, std::size_t k, const ShadingOptions& options) {
+  if (options.normal)
+    throw std::invalid_argument("shading with the entries already found takes untilted lookups");
+  if (!(options.wo.z() >= 0)) throw std::invalid_argument("outgoing direction below the horizon");
+  Convolution result = reflect(table, taps, captures.trees.tree(k), options.convolution);
+  if (captures.lights_of(k).empty()) return result;
+  add_capture_lights(table, taps, captures, k, std::nullopt, std::nullopt, options.wo.normalized(),
+                     options, result);
   return result;
 }
 

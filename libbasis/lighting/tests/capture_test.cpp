@@ -55,6 +55,30 @@ TEST(Capture, ConstantLightGivesTheConstantThroughAWhiteLambertTable) {
   EXPECT_NEAR(lo[1], 0.5, 0.0025);
 }
 
+// Shading a set at one wo with the entries found once gives what the light is; a tilted lookup
+// needs its entries found per capture, so it is refused.
+TEST(Capture, ShadingWithEntriesFoundBeforehandGivesTheConstantAndIsUntiltedOnly) {
+  BrdfTableOptions o;
+  o.wo_resolution = 3;
+  o.wi_resolution = 2;
+  o.tilt_derivatives = false;
+  const BrdfTable table = tabulate_brdf(Lambert{{1, 1, 1}}, o);
+  const Environment env = Environment::constant({0.7, 1.3, 2.0});
+  const std::vector<SurfacePoint> points = {{Vec3::Zero(), Vec3::UnitZ()},
+                                            {Vec3(1, 0, 0), Vec3(0, 1, 0)}};
+  const CaptureSet set = capture_set(env, nullptr, points, {});
+  ShadingOptions shading;
+  shading.wo = Vec3(0.3, 0.2, 0.9).normalized();
+  const auto taps = lookup_taps(table.view(), shading.wo, shading.interpolation);
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    const Convolution lo = shade(table.view(), taps, set.view(), k, shading);
+    EXPECT_NEAR(lo.value[0], 0.7, 0.005 * 0.7) << k;
+    EXPECT_NEAR(lo.value[2], 2.0, 0.005 * 2.0) << k;
+  }
+  shading.normal = Vec3(0, 0.1, 1).normalized();
+  EXPECT_THROW(shade(table.view(), taps, set.view(), 0, shading), std::invalid_argument);
+}
+
 void check_against_map(const std::string& name, const Environment& env) {
   double worst = 0;
   for (const Vec3& n : normals()) {

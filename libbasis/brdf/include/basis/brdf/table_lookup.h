@@ -32,6 +32,10 @@ std::array<TableTap, 4> lookup_taps(const BrdfTableView& table, const Vec3& wo,
 // Throws std::invalid_argument for wo below the horizon.
 Convolution reflect(const BrdfTableView& table, const PackedTreeView& radiance, const Vec3& wo,
                     const LookupOptions& options = {});
+// The same with the entries around wo already found (lookup_taps): many radiance trees looked up
+// at one wo find them once.
+Convolution reflect(const BrdfTableView& table, const std::array<TableTap, 4>& taps,
+                    const PackedTreeView& radiance, const ConvolutionOptions& options = {});
 
 // How reflect_tilted accounts for a tilt of the surface against the record's frame.
 enum class TiltCompensation {
