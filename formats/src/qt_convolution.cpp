@@ -73,7 +73,8 @@ FileConvolution::FileConvolution(const QtFile& a, const QtFile& b, const Shading
       warning_ = std::string(e.what()) + "; directional lights use the table's texels";
     }
   }
-  // An untilted lookup reads the same entries at every point: found once.
+  // An untilted lookup reads the same entries at every point: found once (a wo that lookups
+  // refuse is refused at the first lookup, as before).
   if (table_ && !shading_.normal && shading_.wo.z() >= 0 && shading_.wo.allFinite() &&
       shading_.wo.norm() > 0)
     taps_ = lookup_taps(table_->brdf_table(), shading_.wo.normalized(), shading_.interpolation);

@@ -311,7 +311,8 @@ struct DescentConstants {
     }
   }
 
-  // Channel c of group g of the root's four quadrants, without the value scale.
+  // Channel c of group g of the root's four quadrants, without the value scale (shared-exponent
+  // trees have one group).
   static __m128 root_quadrants(const PackedTreeView& t, int g, int c) {
     const std::uint32_t* values = t.node(0) + (t.is_texel_node(0) ? 0 : 1);
     if (!t.shape().shared_values()) return load_halves(values + 2 * (g * t.shape().channels + c));

@@ -43,26 +43,15 @@ void add_lights(std::span<const DirectionalLight> lights, const std::optional<Fr
   }
 }
 
-}  // namespace
-
-Rgb reflect_lights(std::span<const DirectionalLight> lights, const Frame& record,
-                   const Frame& shading, const Vec3& wo, const Brdf& brdf) {
-  Convolution result;
-  add_lights(lights, record, shading, wo, &brdf, result, [](const Vec3&, Color&, Color&) {});
-  return result.value;
-}
-
-namespace {
-
 // Adds capture k's directional lights to a lookup's result (see shade): f from
-// options.light_brdf, else from the table's entries `taps` around wo.
+// options.light_brdf, else from the table's entries `taps` around options.wo.
 void add_capture_lights(const BrdfTableView& table, const std::array<TableTap, 4>& taps,
                         const CaptureSetView& captures, std::size_t k,
                         const std::optional<Frame>& record, const std::optional<Frame>& shading,
-                        const Vec3& wo, const ShadingOptions& options, Convolution& result) {
+                        const ShadingOptions& options, Convolution& result) {
   const int table_channels = table.trees.shape().channels;
-  add_lights(captures.lights_of(k), record, shading, wo, options.light_brdf, result,
-             [&](const Vec3& wi, Color& f, Color& error) {
+  add_lights(captures.lights_of(k), record, shading, options.wo.normalized(), options.light_brdf,
+             result, [&](const Vec3& wi, Color& f, Color& error) {
                const Vec2 uv = cosine_hemisphere_to_square(wi);
                for (const TableTap& tap : taps) {
                  if (!tap.reads_anything()) continue;
@@ -82,6 +71,13 @@ void add_capture_lights(const BrdfTableView& table, const std::array<TableTap, 4
 
 }  // namespace
 
+Rgb reflect_lights(std::span<const DirectionalLight> lights, const Frame& record,
+                   const Frame& shading, const Vec3& wo, const Brdf& brdf) {
+  Convolution result;
+  add_lights(lights, record, shading, wo, &brdf, result, [](const Vec3&, Color&, Color&) {});
+  return result.value;
+}
+
 Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, std::size_t k,
                   const ShadingOptions& options) {
   if (!(options.wo.z() >= 0)) throw std::invalid_argument("outgoing direction below the horizon");
@@ -100,7 +96,7 @@ Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, st
   // The entries around wo, read only when the lights take f from the table.
   const auto taps = options.light_brdf ? std::array<TableTap, 4>{}
                                        : lookup_taps(table, wo, options.interpolation);
-  add_capture_lights(table, taps, captures, k, record, shading, wo, options, result);
+  add_capture_lights(table, taps, captures, k, record, shading, options, result);
   return result;
 }
 
@@ -111,8 +107,7 @@ Convolution shade(const BrdfTableView& table, const std::array<TableTap, 4>& tap
   if (!(options.wo.z() >= 0)) throw std::invalid_argument("outgoing direction below the horizon");
   Convolution result = reflect(table, taps, captures.trees.tree(k), options.convolution);
   if (captures.lights_of(k).empty()) return result;
-  add_capture_lights(table, taps, captures, k, std::nullopt, std::nullopt, options.wo.normalized(),
-                     options, result);
+  add_capture_lights(table, taps, captures, k, std::nullopt, std::nullopt, options, result);
   return result;
 }
 

@@ -73,6 +73,7 @@ TEST(Capture, ShadingWithEntriesFoundBeforehandGivesTheConstantAndIsUntiltedOnly
   for (std::size_t k = 0; k < points.size(); ++k) {
     const Convolution lo = shade(table.view(), taps, set.view(), k, shading);
     EXPECT_NEAR(lo.value[0], 0.7, 0.005 * 0.7) << k;
+    EXPECT_NEAR(lo.value[1], 1.3, 0.005 * 1.3) << k;
     EXPECT_NEAR(lo.value[2], 2.0, 0.005 * 2.0) << k;
   }
   shading.normal = Vec3(0, 0.1, 1).normalized();

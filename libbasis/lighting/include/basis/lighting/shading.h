@@ -47,9 +47,8 @@ Tilt capture_tilt(const CaptureSetView& captures, std::size_t k, const Vec3& nor
 // is 0 with light_brdf, else the entries' leaves' largest-deviation bounds at its texel.
 Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, std::size_t k,
                   const ShadingOptions& options);
-// The same for an untilted lookup (options.normal empty) whose entries around options.wo are
-// already found (lookup_taps(table, options.wo, options.interpolation)): shading many captures
-// at one wo finds them once. Throws std::invalid_argument with options.normal.
+// The same, untilted (std::invalid_argument with options.normal), with the entries around wo
+// found beforehand by lookup_taps: many captures shaded at one wo find them once.
 Convolution shade(const BrdfTableView& table, const std::array<TableTap, 4>& taps,
                   const CaptureSetView& captures, std::size_t k, const ShadingOptions& options);
 
