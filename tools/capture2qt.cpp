@@ -207,9 +207,8 @@ int main(int argc, char** argv) {
     // The run's points, and the shard of them this process captures.
     std::uint64_t total_points = 0;
     if (!at.empty()) {
-      const basis::Vec3 normal = basis::cli::parse_triple(normal_text, "--normal");
-      if (!(normal.norm() > 1e-12)) throw UsageError("--normal must not be zero");
-      points.push_back({basis::cli::parse_triple(at, "--at"), normal.normalized()});
+      const basis::Vec3 normal = basis::cli::parse_direction(normal_text, "--normal");
+      points.push_back({basis::cli::parse_triple(at, "--at"), normal});
       total_points = 1;
     } else if (!points_path.empty()) {
       points = basis::read_points(points_path);

@@ -64,5 +64,8 @@ Shard parse_shard_option(const std::string& text, std::uint64_t total, const std
 
 // Parses "X,Y,Z" into three finite numbers; throws UsageError naming the option.
 Vec3 parse_triple(const std::string& text, const std::string& option);
+// Parses "X,Y,Z" into the unit vector along it, whatever its length (1e-300 or 1e300 alike);
+// throws UsageError naming the option for a zero vector.
+Vec3 parse_direction(const std::string& text, const std::string& option);
 
 }  // namespace basis::cli

@@ -241,17 +241,13 @@ int main(int argc, char** argv) {
     basis::CaptureSource a = basis::CaptureSource::open(a_path);
     basis::CaptureSource b = basis::CaptureSource::open(b_path);
     basis::ShadingOptions shading;
-    shading.wo = basis::cli::parse_triple(wo_text, "--wo");
-    if (!(shading.wo.norm() > 1e-12)) throw UsageError("--wo must not be zero");
+    shading.wo = basis::cli::parse_direction(wo_text, "--wo");
     if (shading.wo.z() < 0) throw UsageError("--wo is below the horizon (z < 0)");
-    shading.wo.normalize();
     shading.convolution.accuracy = accuracy;
     shading.interpolation = interpolation == "bilinear" ? basis::WoInterpolation::bilinear
                                                         : basis::WoInterpolation::hermite;
     if (!normal_text.empty()) {
-      const basis::Vec3 normal = basis::cli::parse_triple(normal_text, "--normal");
-      if (!(normal.norm() > 1e-12)) throw UsageError("--normal must not be zero");
-      shading.normal = normal.normalized();
+      shading.normal = basis::cli::parse_direction(normal_text, "--normal");
       shading.tilt_mode = tilt_mode == "none"             ? basis::TiltCompensation::none
                           : tilt_mode == "reparametrised" ? basis::TiltCompensation::reparametrised
                                                           : basis::TiltCompensation::compensated;
