@@ -80,6 +80,15 @@ Vec3 to_vec3(const std::array<double, 3>& a) {
   return {a[0], a[1], a[2]};
 }
 
+// The unit vector along a whatever its length; ValueError naming `what` for a zero or
+// non-finite vector.
+Vec3 to_direction(const std::array<double, 3>& a, const char* what) {
+  const Vec3 unit = unit_direction(to_vec3(a));
+  if (unit.isZero())
+    throw std::invalid_argument(std::string(what) + " must be a finite non-zero vector");
+  return unit;
+}
+
 py::array_t<double> rgb_array(const Rgb& v) {
   py::array_t<double> out(3);
   for (int c = 0; c < 3; ++c)
@@ -462,7 +471,7 @@ PYBIND11_MODULE(basis, m) {
       "reflect",
       [](const Table& table, const Tree& radiance, const std::array<double, 3>& wo, double accuracy,
          const std::string& interpolation) {
-        return result(reflect(table.view, radiance.view, to_vec3(wo).normalized(),
+        return result(reflect(table.view, radiance.view, to_direction(wo, "wo"),
                               {{accuracy}, interpolation_of(interpolation)}));
       },
       py::arg("table"), py::arg("radiance"), py::arg("wo") = std::array<double, 3>{0, 0, 1},
@@ -480,7 +489,7 @@ PYBIND11_MODULE(basis, m) {
                                        : throw std::invalid_argument(
                                              "mode must be none, reparametrised or "
                                                 "compensated");
-        return result(reflect_tilted(table.view, radiance.view, to_vec3(wo).normalized(),
+        return result(reflect_tilted(table.view, radiance.view, to_direction(wo, "wo"),
                                      {tilt[0], tilt[1]}, compensation));
       },
       py::arg("table"), py::arg("radiance"), py::arg("wo"), py::arg("tilt"),
@@ -495,7 +504,7 @@ PYBIND11_MODULE(basis, m) {
          double accuracy, const std::string& interpolation) {
         const std::optional<Brdf> brdf = table_brdf_of(table);
         ShadingOptions options;
-        options.wo = to_vec3(wo).normalized();
+        options.wo = to_direction(wo, "wo");
         options.light_brdf = brdf ? &*brdf : nullptr;
         options.convolution.accuracy = accuracy;
         options.interpolation = interpolation_of(interpolation);
@@ -543,8 +552,9 @@ PYBIND11_MODULE(basis, m) {
           throw std::invalid_argument("res must be a power of two from 2 to 512");
         std::vector<SurfacePoint> surface;
         for (std::size_t k = 0; k < p.size(); ++k) {
-          if (!(n[k].norm() > 0)) throw std::invalid_argument("a normal is zero");
-          surface.push_back({p[k], n[k].normalized()});
+          const Vec3 normal = unit_direction(n[k]);
+          if (normal.isZero()) throw std::invalid_argument("a normal is zero");
+          surface.push_back({p[k], normal});
         }
         py::gil_scoped_release release;
         CaptureRecipe recipe;

@@ -139,12 +139,9 @@ Vec3 parse_triple(const std::string& text, const std::string& option) {
 }
 
 Vec3 parse_direction(const std::string& text, const std::string& option) {
-  const Vec3 v = parse_triple(text, option);
-  // Scaled by its largest component first, so that its squared length neither overflows nor
-  // vanishes.
-  const double largest = v.cwiseAbs().maxCoeff();
-  if (!(largest > 0)) throw UsageError(option + " must not be zero");
-  return (v / largest).normalized();
+  const Vec3 unit = unit_direction(parse_triple(text, option));
+  if (unit.isZero()) throw UsageError(option + " must not be zero");
+  return unit;
 }
 
 }  // namespace basis::cli

@@ -163,6 +163,10 @@ def test_a_constant_light_reflects_the_directional_albedo():
     f = brdf.evaluate(wi, wo[None, :])[:, 0]
     albedo = np.sum(f * wi[:, 2] * np.sin(t).ravel()) * (np.pi / 2 / n) * (2 * np.pi / (2 * n))
     assert value[0] == pytest.approx(albedo, rel=0.01)
+    # wo is a direction whatever its length: its squared length may leave the double range.
+    for scale in (1e300, 1e-300):
+        scaled, _ = basis.reflect(table, light, tuple(wo * scale))
+        assert scaled[0] == pytest.approx(albedo, rel=0.01)
 
 
 def test_errors_are_exceptions_with_one_line(tmp_path):
@@ -183,6 +187,8 @@ def test_errors_are_exceptions_with_one_line(tmp_path):
                            wi_res=4, tilt=False)
     with pytest.raises(ValueError, match="out of range"):
         table.entry(3, 0)
+    with pytest.raises(ValueError, match="wo must be"):
+        basis.reflect(table, basis.project(np.ones((8, 8), np.float32)), (0, 0, 0))
     tree = basis.project(np.ones((8, 8), np.float32))
     for group, channel in ((5, 0), (0, 2), (-1, 0), (100000000, 0)):
         with pytest.raises(ValueError, match="no group"):
