@@ -84,7 +84,7 @@ Vec3 to_vec3(const std::array<double, 3>& a) {
 // non-finite vector.
 Vec3 to_direction(const std::array<double, 3>& a, const char* what) {
   const Vec3 unit = unit_direction(to_vec3(a));
-  if (unit.isZero())
+  if (unit == Vec3::Zero())
     throw std::invalid_argument(std::string(what) + " must be a finite non-zero vector");
   return unit;
 }
@@ -421,9 +421,16 @@ PYBIND11_MODULE(basis, m) {
               throw std::invalid_argument("wi and wo must hold as many directions (or wo one)");
             py::array_t<double> out({py::ssize_t(i.size()), py::ssize_t(3)});
             auto a = out.mutable_unchecked<2>();
+            auto unit = [](const Vec3& v, const char* name, std::size_t k) {
+              const Vec3 u = unit_direction(v);
+              if (u == Vec3::Zero())
+                throw std::invalid_argument(std::string(name) + "[" + std::to_string(k) +
+                                            "] must be a finite non-zero vector");
+              return u;
+            };
             for (std::size_t k = 0; k < i.size(); ++k) {
-              const Color f =
-                  evaluate(b.spec.brdf, i[k].normalized(), o[o.size() == 1 ? 0 : k].normalized());
+              const std::size_t ko = o.size() == 1 ? 0 : k;
+              const Color f = evaluate(b.spec.brdf, unit(i[k], "wi", k), unit(o[ko], "wo", ko));
               for (int c = 0; c < 3; ++c)
                 a(py::ssize_t(k), c) = f[c];
             }
@@ -553,7 +560,9 @@ PYBIND11_MODULE(basis, m) {
         std::vector<SurfacePoint> surface;
         for (std::size_t k = 0; k < p.size(); ++k) {
           const Vec3 normal = unit_direction(n[k]);
-          if (normal.isZero()) throw std::invalid_argument("a normal is zero");
+          if (normal == Vec3::Zero())
+            throw std::invalid_argument("normals[" + std::to_string(k) +
+                                        "] must be a finite non-zero vector");
           surface.push_back({p[k], normal});
         }
         py::gil_scoped_release release;

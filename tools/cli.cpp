@@ -140,7 +140,7 @@ Vec3 parse_triple(const std::string& text, const std::string& option) {
 
 Vec3 parse_direction(const std::string& text, const std::string& option) {
   const Vec3 unit = unit_direction(parse_triple(text, option));
-  if (unit.isZero()) throw UsageError(option + " must not be zero");
+  if (unit == Vec3::Zero()) throw UsageError(option + " must not be zero");
   return unit;
 }
 

@@ -187,6 +187,9 @@ def test_errors_are_exceptions_with_one_line(tmp_path):
                            wi_res=4, tilt=False)
     with pytest.raises(ValueError, match="out of range"):
         table.entry(3, 0)
+    with pytest.raises(ValueError, match=r"wi\[1\] must be"):
+        basis.Brdf.from_json('{"model": "lambert", "albedo": 0.5}').evaluate(
+            np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 0.0]]), np.array([[0.0, 0.0, 1.0]]))
     with pytest.raises(ValueError, match="wo must be"):
         basis.reflect(table, basis.project(np.ones((8, 8), np.float32)), (0, 0, 0))
     tree = basis.project(np.ones((8, 8), np.float32))

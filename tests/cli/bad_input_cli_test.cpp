@@ -172,6 +172,22 @@ TEST(BadInputMatrix, CaptureInputs) {
   for (const std::string name : {"missing.csv", "empty.csv", "foreign.csv", "folder"})
     check(dir, "capture2qt",
           {{"--env-constant", "1,1,1", "--points", name, "-o", "out.qt"}, 1, name});
+  // A point's normal is a direction whatever its length: one whose squared length overflows is
+  // taken along its direction and gives a file the readers accept; a zero one is refused.
+  std::ofstream(dir.file("zero_normal.csv")) << "0,0,0,0,0,0\n";
+  check(dir, "capture2qt",
+        {{"--env-constant", "1,1,1", "--points", "zero_normal.csv", "-o", "out.qt"},
+         1,
+         "zero_normal.csv:1: the normal is zero"});
+  std::ofstream(dir.file("huge_normal.csv")) << "0,0,0,0,0,1e200\n";
+  const auto huge =
+      run_tool("capture2qt",
+               {"--env-constant", "1,1,1", "--points", "huge_normal.csv", "-o", "huge.qt", "-q"},
+               dir.path());
+  ASSERT_EQ(huge.status, 0) << huge.err;
+  const auto info = run_tool("qtinfo", {"huge.qt", "--json"}, dir.path());
+  ASSERT_EQ(info.status, 0) << info.err;
+  EXPECT_NE(info.out.find("\"trees\": 1,"), std::string::npos) << info.out;
 }
 
 TEST(BadInputMatrix, AbsurdSizesAndTolerances) {

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
-#include <limits>
 #include <numbers>
 #include <random>
 
@@ -38,16 +37,6 @@ double integrate_square(int n, const std::function<double(const Vec2&)>& f) {
     for (int i = 0; i < n; ++i)
       sum += f(Vec2((i + 0.5) / n, (j + 0.5) / n));
   return sum / (double(n) * n);
-}
-
-TEST(UnitDirection, IsTheDirectionWhateverItsLengthAndZeroForNone) {
-  // (2, 3, 6) has length 7 exactly.
-  const Vec3 expected(2.0 / 7, 3.0 / 7, 6.0 / 7);
-  for (const double scale : {1.0, 1e300, 1e-300})
-    EXPECT_LT((unit_direction(Vec3(2, 3, 6) * scale) - expected).norm(), 1e-15) << scale;
-  EXPECT_TRUE(unit_direction(Vec3::Zero()).isZero());
-  EXPECT_TRUE(unit_direction(Vec3(1, std::numeric_limits<double>::infinity(), 0)).isZero());
-  EXPECT_TRUE(unit_direction(Vec3(1, std::nan(""), 0)).isZero());
 }
 
 TEST(ConcentricMap, KnownValues) {

@@ -33,13 +33,13 @@ std::vector<SurfacePoint> read_points(const std::string& path) {
     }
     if (!(fields >> std::ws).eof())
       throw FileError(path + ":" + std::to_string(number) + ": more than six values");
-    const Vec3 n(v[3], v[4], v[5]);
-    if (!(n.norm() > 1e-12))
+    const Vec3 n = unit_direction(Vec3(v[3], v[4], v[5]));
+    if (n == Vec3::Zero())
       throw FileError(path + ":" + std::to_string(number) + ": the normal is zero");
     if (points.size() >= kMaxSurfacePoints)
       throw FileError(path + ":" + std::to_string(number) + ": more than " +
                       std::to_string(kMaxSurfacePoints) + " points");
-    points.push_back({Vec3(v[0], v[1], v[2]), n.normalized()});
+    points.push_back({Vec3(v[0], v[1], v[2]), n});
   }
   if (points.empty()) throw FileError(path + ": no points");
   return points;
