@@ -75,9 +75,9 @@ FileConvolution::FileConvolution(const QtFile& a, const QtFile& b, const Shading
   }
   // An untilted lookup reads the same entries at every point: found once (a wo that lookups
   // refuse is refused at the first lookup, as before).
-  if (table_ && !shading_.normal && shading_.wo.z() >= 0 && shading_.wo.allFinite() &&
-      shading_.wo.norm() > 0)
-    taps_ = lookup_taps(table_->brdf_table(), shading_.wo.normalized(), shading_.interpolation);
+  const Vec3 wo = unit_direction(shading_.wo);
+  if (table_ && !shading_.normal && wo != Vec3::Zero() && wo.z() >= 0)
+    taps_ = lookup_taps(table_->brdf_table(), wo, shading_.interpolation);
   if (evaluation == Evaluation::dense) {
     if (shading_.normal)
       throw std::invalid_argument("dense evaluation takes untilted lookups only (no --normal)");

@@ -50,7 +50,7 @@ void add_capture_lights(const BrdfTableView& table, const std::array<TableTap, 4
                         const std::optional<Frame>& record, const std::optional<Frame>& shading,
                         const ShadingOptions& options, Convolution& result) {
   const int table_channels = table.trees.shape().channels;
-  add_lights(captures.lights_of(k), record, shading, options.wo.normalized(), options.light_brdf,
+  add_lights(captures.lights_of(k), record, shading, unit_direction(options.wo), options.light_brdf,
              result, [&](const Vec3& wi, Color& f, Color& error) {
                const Vec2 uv = cosine_hemisphere_to_square(wi);
                for (const TableTap& tap : taps) {
@@ -80,8 +80,9 @@ Rgb reflect_lights(std::span<const DirectionalLight> lights, const Frame& record
 
 Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, std::size_t k,
                   const ShadingOptions& options) {
-  if (!(options.wo.z() >= 0)) throw std::invalid_argument("outgoing direction below the horizon");
-  const Vec3 wo = options.wo.normalized();
+  const Vec3 wo = unit_direction(options.wo);
+  if (wo == Vec3::Zero() || !(wo.z() >= 0))
+    throw std::invalid_argument("outgoing direction below the horizon, zero or not finite");
   if (!options.normal)
     return shade(table, lookup_taps(table, wo, options.interpolation), captures, k, options);
   const Tilt tilt = capture_tilt(captures, k, *options.normal);
@@ -104,7 +105,8 @@ Convolution shade(const BrdfTableView& table, const std::array<TableTap, 4>& tap
                   const CaptureSetView& captures, std::size_t k, const ShadingOptions& options) {
   if (options.normal)
     throw std::invalid_argument("shading with the entries already found takes untilted lookups");
-  if (!(options.wo.z() >= 0)) throw std::invalid_argument("outgoing direction below the horizon");
+  if (!(options.wo.z() >= 0) || unit_direction(options.wo) == Vec3::Zero())
+    throw std::invalid_argument("outgoing direction below the horizon, zero or not finite");
   Convolution result = reflect(table, taps, captures.trees.tree(k), options.convolution);
   if (captures.lights_of(k).empty()) return result;
   add_capture_lights(table, taps, captures, k, std::nullopt, std::nullopt, options, result);
@@ -114,7 +116,7 @@ Convolution shade(const BrdfTableView& table, const std::array<TableTap, 4>& tap
 DenseLookup dense_lookup(const BrdfTableView& table, const Vec3& wo,
                          WoInterpolation interpolation) {
   DenseLookup lookup;
-  lookup.wo = wo.normalized();
+  lookup.wo = unit_direction(wo);
   for (const TableTap& tap : lookup_taps(table, lookup.wo, interpolation))
     if (tap.reads_anything())
       lookup.entries.push_back(combine_groups(reconstruct(table.entry(tap.i, tap.j)), tap.weights));

@@ -76,6 +76,14 @@ TEST(Capture, ShadingWithEntriesFoundBeforehandGivesTheConstantAndIsUntiltedOnly
     EXPECT_NEAR(lo.value[1], 1.3, 0.005 * 1.3) << k;
     EXPECT_NEAR(lo.value[2], 2.0, 0.005 * 2.0) << k;
   }
+  // wo is a direction whatever its length; a zero one is refused.
+  const Vec3 wo = shading.wo;
+  shading.wo = wo * 1e300;
+  EXPECT_NEAR(shade(table.view(), set.view(), 0, shading).value[1], 1.3, 0.005 * 1.3);
+  shading.wo = Vec3::Zero();
+  EXPECT_THROW(shade(table.view(), set.view(), 0, shading), std::invalid_argument);
+  EXPECT_THROW(shade(table.view(), taps, set.view(), 0, shading), std::invalid_argument);
+  shading.wo = wo;
   shading.normal = Vec3(0, 0.1, 1).normalized();
   EXPECT_THROW(shade(table.view(), taps, set.view(), 0, shading), std::invalid_argument);
 }

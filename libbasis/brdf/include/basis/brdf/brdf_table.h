@@ -159,8 +159,9 @@ struct TableTap {
   bool reads_derivatives() const { return weights[1] != 0 || weights[2] != 0; }
   bool reads_anything() const { return weights[0] != 0 || reads_derivatives(); }
 };
-// The four entries around wo (unit, wo.z >= 0) in a parabolic grid of M x M entries, with their
-// weights. Throws std::invalid_argument for wo below the horizon.
+// The four entries around the direction of wo (any length, wo.z >= 0) in a parabolic grid of
+// M x M entries, with their weights. Throws std::invalid_argument for wo below the horizon,
+// zero or not finite.
 std::array<TableTap, 4> table_taps(int wo_resolution, const Vec3& wo,
                                    WoInterpolation interpolation = WoInterpolation::bilinear);
 

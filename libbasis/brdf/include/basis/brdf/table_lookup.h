@@ -25,11 +25,11 @@ std::array<TableTap, 4> lookup_taps(const BrdfTableView& table, const Vec3& wo,
                                     WoInterpolation interpolation);
 
 // Reflected radiance Lo(wo) = integral of f(wi, wo) L(wi) cos(theta_i) dwi (pi included) for
-// a unit wo with wo.z >= 0 in the table's frame: the entries around wo in the parabolic grid
-// convolved with the radiance tree, each in one descent with its groups weighted as the
-// interpolation says (lookup_taps). The bound sums the entries' weighted bounds: it covers the
+// wo (a direction, any length) with wo.z >= 0 in the table's frame: the entries around wo in the
+// parabolic grid convolved with the radiance tree, each in one descent with its groups weighted as
+// the interpolation says (lookup_taps). The bound sums the entries' weighted bounds: it covers the
 // trees against their texels, not the BRDF's variation between entries.
-// Throws std::invalid_argument for wo below the horizon.
+// Throws std::invalid_argument for wo below the horizon, zero or not finite.
 Convolution reflect(const BrdfTableView& table, const PackedTreeView& radiance, const Vec3& wo,
                     const LookupOptions& options = {});
 // The same with the entries around wo already found (lookup_taps): many radiance trees looked up
