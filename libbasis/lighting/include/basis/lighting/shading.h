@@ -14,8 +14,8 @@
 namespace basis {
 
 struct ShadingOptions {
-  // Outgoing direction in the shading frame (the capture's frame unless `normal` is given);
-  // must have wo.z >= 0.
+  // Outgoing direction in the shading frame (the capture's frame unless `normal` is given), of
+  // any non-zero length; must have wo.z >= 0.
   Vec3 wo{0, 0, 1};
   // Shade as if the surface normal were this unit vector (world coordinates) instead of the
   // capture's: the shading frame is the capture's frame rotated by the smallest rotation taking
