@@ -315,11 +315,15 @@ BrdfTable tabulate_brdf(const Brdf& brdf, const BrdfTableOptions& options,
   return table;
 }
 
-std::array<TableTap, 4> table_taps(int m, const Vec3& wo, WoInterpolation interpolation) {
+Vec3 outgoing_direction(const Vec3& wo) {
   const Vec3 unit = unit_direction(wo);
   if (unit == Vec3::Zero() || !(unit.z() >= 0))
     throw std::invalid_argument("outgoing direction below the horizon, zero or not finite");
-  const Vec2 st = hemisphere_to_parabolic(unit);
+  return unit;
+}
+
+std::array<TableTap, 4> table_taps(int m, const Vec3& wo, WoInterpolation interpolation) {
+  const Vec2 st = hemisphere_to_parabolic(outgoing_direction(wo));
   auto axis = [m](double s, int& index, double& frac) {
     const double g = std::clamp((s + 1) / 2 * (m - 1), 0.0, double(m - 1));
     index = std::min(int(g), m - 2);

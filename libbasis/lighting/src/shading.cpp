@@ -43,15 +43,15 @@ void add_lights(std::span<const DirectionalLight> lights, const std::optional<Fr
   }
 }
 
-// Adds capture k's directional lights to a lookup's result (see shade): f from
-// options.light_brdf, else from the table's entries `taps` around options.wo.
+// Adds capture k's directional lights to a lookup's result (see shade) towards the unit wo: f
+// from light_brdf, else from the table's entries `taps` around wo.
 void add_capture_lights(const BrdfTableView& table, const std::array<TableTap, 4>& taps,
                         const CaptureSetView& captures, std::size_t k,
                         const std::optional<Frame>& record, const std::optional<Frame>& shading,
-                        const ShadingOptions& options, Convolution& result) {
+                        const Vec3& wo, const Brdf* light_brdf, Convolution& result) {
   const int table_channels = table.trees.shape().channels;
-  add_lights(captures.lights_of(k), record, shading, unit_direction(options.wo), options.light_brdf,
-             result, [&](const Vec3& wi, Color& f, Color& error) {
+  add_lights(captures.lights_of(k), record, shading, wo, light_brdf, result,
+             [&](const Vec3& wi, Color& f, Color& error) {
                const Vec2 uv = cosine_hemisphere_to_square(wi);
                for (const TableTap& tap : taps) {
                  if (!tap.reads_anything()) continue;
@@ -80,9 +80,7 @@ Rgb reflect_lights(std::span<const DirectionalLight> lights, const Frame& record
 
 Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, std::size_t k,
                   const ShadingOptions& options) {
-  const Vec3 wo = unit_direction(options.wo);
-  if (wo == Vec3::Zero() || !(wo.z() >= 0))
-    throw std::invalid_argument("outgoing direction below the horizon, zero or not finite");
+  const Vec3 wo = outgoing_direction(options.wo);
   if (!options.normal)
     return shade(table, lookup_taps(table, wo, options.interpolation), captures, k, options);
   const Tilt tilt = capture_tilt(captures, k, *options.normal);
@@ -97,7 +95,7 @@ Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, st
   // The entries around wo, read only when the lights take f from the table.
   const auto taps = options.light_brdf ? std::array<TableTap, 4>{}
                                        : lookup_taps(table, wo, options.interpolation);
-  add_capture_lights(table, taps, captures, k, record, shading, options, result);
+  add_capture_lights(table, taps, captures, k, record, shading, wo, options.light_brdf, result);
   return result;
 }
 
@@ -105,18 +103,18 @@ Convolution shade(const BrdfTableView& table, const std::array<TableTap, 4>& tap
                   const CaptureSetView& captures, std::size_t k, const ShadingOptions& options) {
   if (options.normal)
     throw std::invalid_argument("shading with the entries already found takes untilted lookups");
-  if (!(options.wo.z() >= 0) || unit_direction(options.wo) == Vec3::Zero())
-    throw std::invalid_argument("outgoing direction below the horizon, zero or not finite");
+  const Vec3 wo = outgoing_direction(options.wo);
   Convolution result = reflect(table, taps, captures.trees.tree(k), options.convolution);
   if (captures.lights_of(k).empty()) return result;
-  add_capture_lights(table, taps, captures, k, std::nullopt, std::nullopt, options, result);
+  add_capture_lights(table, taps, captures, k, std::nullopt, std::nullopt, wo, options.light_brdf,
+                     result);
   return result;
 }
 
 DenseLookup dense_lookup(const BrdfTableView& table, const Vec3& wo,
                          WoInterpolation interpolation) {
   DenseLookup lookup;
-  lookup.wo = unit_direction(wo);
+  lookup.wo = outgoing_direction(wo);
   for (const TableTap& tap : lookup_taps(table, lookup.wo, interpolation))
     if (tap.reads_anything())
       lookup.entries.push_back(combine_groups(reconstruct(table.entry(tap.i, tap.j)), tap.weights));

@@ -159,6 +159,9 @@ struct TableTap {
   bool reads_derivatives() const { return weights[1] != 0 || weights[2] != 0; }
   bool reads_anything() const { return weights[0] != 0 || reads_derivatives(); }
 };
+// The unit direction of an outgoing wo of any length; std::invalid_argument when wo is below the
+// horizon (z < 0), zero or not finite.
+Vec3 outgoing_direction(const Vec3& wo);
 // The four entries around the direction of wo (any length, wo.z >= 0) in a parabolic grid of
 // M x M entries, with their weights. Throws std::invalid_argument for wo below the horizon,
 // zero or not finite.
