@@ -515,8 +515,9 @@ PYBIND11_MODULE(basis, m) {
         options.light_brdf = brdf ? &*brdf : nullptr;
         options.convolution.accuracy = accuracy;
         options.interpolation = interpolation_of(interpolation);
-        // One wo for every capture: the entries around it are found once.
-        const auto taps = lookup_taps(table.view, options.wo, options.interpolation);
+        // One wo for every capture: the entries around it are found and folded once.
+        const EntriesAtWo entries =
+            entries_at(table.view, options.wo, options.interpolation, captures.view.size());
         const std::size_t n = captures.view.size();
         py::array_t<double> values({py::ssize_t(n), py::ssize_t(3)}),
             bounds({py::ssize_t(n), py::ssize_t(3)});
@@ -525,7 +526,7 @@ PYBIND11_MODULE(basis, m) {
         {
           py::gil_scoped_release release;
           for (std::size_t k = 0; k < n; ++k) {
-            const Convolution c = shade(table.view, taps, captures.view, k, options);
+            const Convolution c = shade(table.view, entries, captures.view, k, options);
             for (int ch = 0; ch < 3; ++ch) {
               v[3 * k + ch] = c.value[ch];
               b[3 * k + ch] = c.bound[ch];

@@ -1,7 +1,7 @@
 """Lookups on real scenes, trees against dense grids: for each scene and map, 1000 captures at the
-defaults, the main job's Phong and copper GGX tables, and qtconvolve --dense --time (the trees
-and the vectorised dense products of their reconstructions timed in one run, per lookup), at
-full depth and with --accuracy targets; plus the capture sets' size against dense grids and,
+defaults, the main job's Phong and copper GGX tables at the main job's directions and off the
+grid's rows, and qtconvolve --dense --time (the trees and the vectorised dense products of their
+reconstructions timed in one run, per lookup), at full depth and with an --accuracy target; plus the capture sets' size against dense grids and,
 with --reference, the lookups' error against full-resolution references.
 
 Usage: lookup_study.py [--quick] [--reference] OUT_DIR
@@ -31,9 +31,11 @@ CASES = [
     ("scene.obj, uffizi probe", SCENE, f"{PROBES}/uffizi.hdr"),
     ("bunny, grace probe", BUNNY, f"{PROBES}/grace.hdr"),
 ]
-# The main job's lookups: Phong at the normal, GGX 30 degrees off it.
-TABLES = [("phong", "0,0,1"), ("ggx", "0.5,0,0.866")]
-ACCURACIES = [0, 0.01, 0.05]
+# (label, table, wo): the main job's lookups, Phong at the normal (one entry) and GGX 30 degrees
+# off it (two entries, folded), and both off the grid's rows, where a lookup reads four entries.
+LOOKUPS = [("Phong normal", "phong", "0,0,1"), ("Phong off-grid", "phong", "0.3,0.2,0.93"),
+           ("GGX 30°", "ggx", "0.5,0,0.866"), ("GGX off-grid", "ggx", "0.3,0.2,0.93")]
+ACCURACIES = [0, 0.05]
 
 
 def run(args, **kwargs):
@@ -65,7 +67,7 @@ def main():
     os.makedirs(out, exist_ok=True)
     points = "200" if quick else "1000"
     tables = {}
-    for name, _ in TABLES:
+    for _, name, _ in LOOKUPS:
         tables[name] = os.path.join(out, f"{name}.qt")
         if not os.path.exists(tables[name]):
             run([f"{BIN}/brdf2qt", os.path.join(ROOT, "data", f"{name}.json"), "-o", tables[name],
@@ -83,7 +85,7 @@ def main():
         row = {"case": case, "captures": int(points), "bytes": summary["bytes"],
                "nodes_per_capture": summary["nodes"] / int(points),
                "smaller": dense_bytes / summary["bytes"], "lookups": {}}
-        for name, wo in TABLES:
+        for label, name, wo in LOOKUPS:
             for accuracy in ACCURACIES:
                 r = convolve(tables[name], captures, wo, accuracy, True)
                 entry = {"tree_ns": r["tree_ns_per_lookup"], "dense_ns": r["ns_per_lookup"],
@@ -91,24 +93,24 @@ def main():
                 if reference:
                     entry["error_p50"], entry["error_p99"] = errors(
                         convolve(tables[name], captures, wo, accuracy, False, True))
-                row["lookups"][f"{name}@{accuracy}"] = entry
+                row["lookups"][f"{label}@{accuracy}"] = entry
         rows.append(row)
         print(f"{case}: done", file=sys.stderr)
     with open(os.path.join(out, "lookup_study.json"), "w") as f:
         json.dump(rows, f, indent=1)
     head = "| scene, map | nodes per capture | smaller than dense |"
     rule = "|---|---|---|"
-    for name, _ in TABLES:
+    for label, _, _ in LOOKUPS:
         for accuracy in ACCURACIES:
-            head += f" {name} {'full' if accuracy == 0 else f'at {accuracy:g}'}: trees (dense) µs, ×|"
+            head += f" {label} {'full' if accuracy == 0 else f'at {accuracy:g}'}: trees (dense) µs, ×|"
             rule += "---|"
     print(head)
     print(rule)
     for row in rows:
         line = f"| {row['case']} | {row['nodes_per_capture']:.0f} | {row['smaller']:.1f}× |"
-        for name, _ in TABLES:
+        for label, _, _ in LOOKUPS:
             for accuracy in ACCURACIES:
-                e = row["lookups"][f"{name}@{accuracy}"]
+                e = row["lookups"][f"{label}@{accuracy}"]
                 line += f" {e['tree_ns'] / 1000:.2f} ({e['dense_ns'] / 1000:.1f}), {e['speedup']:.1f}×"
                 if "error_p50" in e:
                     line += f", err {100 * e['error_p50']:.2f} / {100 * e['error_p99']:.2f} %"

@@ -77,7 +77,8 @@ FileConvolution::FileConvolution(const QtFile& a, const QtFile& b, const Shading
   // refuse is refused at the first lookup, as before).
   const Vec3 wo = unit_direction(shading_.wo);
   if (table_ && !shading_.normal && wo != Vec3::Zero() && wo.z() >= 0)
-    taps_ = lookup_taps(table_->brdf_table(), wo, shading_.interpolation);
+    entries_ =
+        entries_at(table_->brdf_table(), wo, shading_.interpolation, shaded_captures().size());
   if (evaluation == Evaluation::dense) {
     if (shading_.normal)
       throw std::invalid_argument("dense evaluation takes untilted lookups only (no --normal)");
@@ -109,10 +110,10 @@ Convolution FileConvolution::operator()(std::size_t k) const {
   }
   if (table_) {
     if (other_->kind() == QtKind::capture_set)
-      return taps_ ? shade(table_->brdf_table(), *taps_, shaded_captures(), k, shading_)
-                   : shade(table_->brdf_table(), shaded_captures(), k, shading_);
-    if (taps_)
-      return reflect(table_->brdf_table(), *taps_, shaded_captures().trees.tree(k),
+      return entries_ ? shade(table_->brdf_table(), *entries_, shaded_captures(), k, shading_)
+                      : shade(table_->brdf_table(), shaded_captures(), k, shading_);
+    if (entries_)
+      return reflect(table_->brdf_table(), *entries_, shaded_captures().trees.tree(k),
                      shading_.convolution);
     return reflect(table_->brdf_table(), shaded_captures().trees.tree(k), shading_.wo,
                    {shading_.convolution, shading_.interpolation});
@@ -123,7 +124,9 @@ Convolution FileConvolution::operator()(std::size_t k) const {
 int FileConvolution::convolutions_per_result() const {
   if (!table_) return 1;
   if (shading_.normal) return shading_.tilt_mode == TiltCompensation::compensated ? 8 : 4;
-  // Untilted: the entries around wo with a weight (lookups skip the others).
+  // Untilted: one descent of the folded entries, or one per entry around wo with a weight
+  // (lookups skip the others).
+  if (entries_ && entries_->folded) return 1;
   int taps = 0;
   for (const TableTap& tap : lookup_taps(table_->brdf_table(), shading_.wo, shading_.interpolation))
     taps += tap.reads_anything();

@@ -31,11 +31,11 @@ void BM_TreeLookups(benchmark::State& state) {
   options.wo = lookup.wo;
   options.convolution.accuracy = double(state.range(1)) / 1000;
   const bool hot = state.range(2) != 0;
-  // The entries around wo, found once as the dense lookup builds its grids once.
-  const auto taps = lookup_taps(table, options.wo, options.interpolation);
+  // The entries around wo, found and folded once as the dense lookup builds its grid once.
+  const EntriesAtWo entries = entries_at(table, options.wo, options.interpolation, captures.size());
   for (auto _ : state)
     for (std::size_t k = 0; k < captures.size(); ++k)
-      benchmark::DoNotOptimize(shade(table, taps, captures, hot ? 0 : k, options));
+      benchmark::DoNotOptimize(shade(table, entries, captures, hot ? 0 : k, options));
   state.SetItemsProcessed(std::int64_t(state.iterations() * captures.size()));
 }
 BENCHMARK(BM_TreeLookups)

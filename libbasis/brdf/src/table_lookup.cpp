@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <numbers>
 #include <stdexcept>
+#include <vector>
 
 namespace basis {
 
@@ -45,14 +46,44 @@ Convolution interpolate(const std::array<TableTap, 4>& taps, Entry entry) {
 
 Convolution reflect(const BrdfTableView& table, const PackedTreeView& radiance, const Vec3& wo,
                     const LookupOptions& options) {
-  return reflect(table, lookup_taps(table, wo, options.interpolation), radiance,
-                 options.convolution);
+  const std::array<TableTap, 4> taps = lookup_taps(table, wo, options.interpolation);
+  return interpolate(taps, [&](const TableTap& tap) {
+    return convolve_tap(table, tap, radiance, options.convolution);
+  });
 }
 
-Convolution reflect(const BrdfTableView& table, const std::array<TableTap, 4>& taps,
+EntriesAtWo entries_at(const BrdfTableView& table, const Vec3& wo, WoInterpolation interpolation,
+                       std::size_t lookups) {
+  EntriesAtWo entries{lookup_taps(table, wo, interpolation), std::nullopt};
+  if (lookups < kFoldingBatch) return entries;
+  std::vector<WeightedTerm> terms;
+  bool derivatives = false;
+  for (const TableTap& tap : entries.taps) {
+    if (!tap.reads_anything()) continue;
+    const int groups = tap.weights[2] != 0 ? 3 : tap.weights[1] != 0 ? 2 : 1;
+    terms.push_back({table.entry(tap.i, tap.j),
+                     {float(tap.weights[0]), float(tap.weights[1]), float(tap.weights[2])},
+                     groups});
+    derivatives = derivatives || tap.reads_derivatives();
+  }
+  const bool foldable = folding_available() && table.trees.shape().bounds == BoundKind::l2;
+  if (foldable && (terms.size() > 1 || derivatives)) entries.folded = fold(terms);
+  return entries;
+}
+
+Convolution reflect(const BrdfTableView& table, const EntriesAtWo& entries,
                     const PackedTreeView& radiance, const ConvolutionOptions& options) {
-  return interpolate(
-      taps, [&](const TableTap& tap) { return convolve_tap(table, tap, radiance, options); });
+  if (!entries.folded)
+    return interpolate(entries.taps, [&](const TableTap& tap) {
+      return convolve_tap(table, tap, radiance, options);
+    });
+  const Convolution c = convolve(*entries.folded, radiance, options);
+  Convolution result;
+  for (int ch = 0; ch < 3; ++ch) {
+    result.value[ch] = float(std::numbers::pi * c.value[ch]);
+    result.bound[ch] = float(std::numbers::pi * c.bound[ch]);
+  }
+  return result;
 }
 
 Convolution reflect_tilted(const BrdfTableView& table, const PackedTreeView& radiance,

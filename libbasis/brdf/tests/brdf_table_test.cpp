@@ -2,7 +2,7 @@
 // through the table's lookup, at and between entries, up to 80 degrees; partial and symmetric
 // tabulation against tabulating every entry; the Hermite weights against polynomials they must
 // reproduce; the derivatives over wo against finite differences of separate tabulations; the
-// lobe width against a closed form.
+// lobe width against a closed form; entries folded for a batch of lookups against their own.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -15,6 +15,7 @@
 #include "basis/core/parabolic.h"
 #include "basis/core/projection.h"
 #include "support/brdf_reference.h"
+#include "support/test_functions.h"
 
 namespace basis {
 namespace {
@@ -74,14 +75,60 @@ TEST_P(TableAlbedo, MatchesNumericIntegration) {
     for (const double phi : {0.0, 17.0, 45.0, 200.0}) {
       const Vec3 wo = outgoing(theta, phi);
       const Convolution c = reflect(table.view(), light.view(), wo);
+      // The same entries found and folded beforehand, as a batch of lookups at wo reads them.
+      const Convolution folded = reflect(
+          table.view(), entries_at(table.view(), wo, WoInterpolation::hermite, kFoldingBatch),
+          light.view());
       for (int ch = 0; ch < channels; ++ch) {
         const double expected = testing::reference_albedo(m.brdf, wo, ch);
         EXPECT_NEAR(c.value[ch], expected, m.tolerance * expected)
             << m.name << " theta " << theta << " phi " << phi << " channel " << ch;
+        EXPECT_NEAR(folded.value[ch], expected, m.tolerance * expected)
+            << m.name << " folded, theta " << theta << " phi " << phi << " channel " << ch;
         worst = std::max(worst, std::abs(c.value[ch] - expected) / expected);
       }
     }
   std::printf("[  ALBEDO  ] %s: largest relative error %.4f\n", m.name.c_str(), worst);
+}
+
+// Lookups at one wo with the entries folded (entries_at) give the entries' own lookups under a
+// light with a bright spot and edges: the same value up to the folded sum's halves, and a bound
+// at most theirs up to the folded codes' rounding up. Folded only where more than one entry, or
+// one entry's derivatives, is read.
+TEST(FoldedEntries, GiveTheEntriesOwnLookups) {
+  BrdfTableOptions options;
+  options.wo_resolution = 9;
+  options.wi_resolution = 32;
+  options.tilt_derivatives = false;
+  const BrdfTable table = tabulate_brdf(Ggx{{0.1, 0.1, 0.1}, {0.9, 0.6, 0.5}, 0.2}, options);
+  const Grid sky = testing::sample_grid(64, 3, [](double u, double v, int c) {
+    return (u > 0.6 ? 2.0 : 0.3) + 0.2 * c +
+           400 * std::exp(-900 * ((u - 0.4) * (u - 0.4) + (v - 0.55) * (v - 0.55)));
+  });
+  const PackedTree light = pack_exact_texels(project(sky, {.tolerance = 0.05}));
+  int folded_count = 0;
+  for (const Vec3& wo :
+       {outgoing(0, 0), outgoing(30, 0), outgoing(33, 17), outgoing(60, 200), outgoing(80, 45)}) {
+    const EntriesAtWo entries =
+        entries_at(table.view(), wo, WoInterpolation::hermite, kFoldingBatch);
+    // A batch too small to pay for the fold does without.
+    EXPECT_FALSE(entries_at(table.view(), wo, WoInterpolation::hermite, kFoldingBatch - 1).folded);
+    int read = 0;
+    bool derivatives = false;
+    for (const TableTap& tap : entries.taps) {
+      read += tap.reads_anything();
+      derivatives = derivatives || tap.reads_derivatives();
+    }
+    EXPECT_EQ(entries.folded.has_value(), folding_available() && (read > 1 || derivatives));
+    folded_count += entries.folded.has_value();
+    const Convolution folded = reflect(table.view(), entries, light.view());
+    const Convolution own = reflect(table.view(), light.view(), wo);
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_NEAR(folded.value[c], own.value[c], 4e-3 * own.value[c]) << wo.transpose();
+      EXPECT_LE(folded.bound[c], 1.125 * own.bound[c] + 0x1p-10 * own.value[c]) << wo.transpose();
+    }
+  }
+  EXPECT_GE(folded_count, folding_available() ? 3 : 0);
 }
 
 // A partial table (only_for) holds the full table's entries, bit for bit, where lookups at its

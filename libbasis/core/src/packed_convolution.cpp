@@ -8,6 +8,7 @@
 #include <type_traits>
 
 #include "basis/core/convolution.h"
+#include "basis/core/folded_tree.h"
 #include "scalar_descent.h"
 
 // The SIMD descent needs SSE4.1 and F16C; an AVX-512 (F, BW, VL) build also takes RGB pairs
@@ -360,8 +361,10 @@ __m128 linf_terms(const DescentConstants<CA, CB>& k, __m128 term, __m128 sa, __m
 
 // Per-pair arithmetic on SSE registers: four quadrants of one channel in each. GA groups of a
 // are summed apart (GA > 1: convolve_groups), or GW groups of a are combined with weights into
-// one function (GW > 1: weighted convolutions).
-template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB>
+// one function (GW > 1: weighted convolutions). kFolded: a is a folded tree (folded_tree.h):
+// group 0 its values and live bounds, group 1 half the magnitudes its rounding scales with and
+// the bounds of the terms that stop where the sum goes on, added on internal quadrants.
+template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB, bool kFolded = false>
 struct NarrowPairs {
   static constexpr int C = CA > CB ? CA : CB;
   struct Sums {
@@ -428,6 +431,18 @@ struct NarrowPairs {
     return s;
   }
 
+  // The magnitude whose kRoundingPerMagnitude-fold bounds the rounding terms of a folded pair,
+  // |f| db + |b| df: db is kHalfRounding times |b| (halves) or a shared word's step share, that
+  // is 2 share_b - |b|; df, the terms' and f's own rounding, kHalfRounding times (2 X + |f|),
+  // X the folded tree's half magnitude.
+  static __m128 folded_magnitude(__m128 abs_f, __m128 half_magnitude, __m128 share_b,
+                                 __m128 abs_b) {
+    const __m128 rounding_b = _mm_sub_ps(_mm_add_ps(share_b, share_b), abs_b);
+    const __m128 rounding_f = _mm_add_ps(_mm_add_ps(half_magnitude, half_magnitude), abs_f);
+    return _mm_mul_ps(_mm_add_ps(_mm_mul_ps(abs_f, rounding_b), _mm_mul_ps(rounding_f, abs_b)),
+                      _mm_set1_ps(0.5f));
+  }
+
   // Adds the pair's quadrants that stop (leaves, or within the accuracy target) and returns
   // the internal quadrants that go on. kTexelA, kTexelB: the node of a, of b, is a texel node of
   // exact texels, values alone.
@@ -449,11 +464,19 @@ struct NarrowPairs {
       words_b = _mm_loadu_si128(reinterpret_cast<const __m128i*>(values_b));
       steps_b = shared_steps(words_b);
     }
-    __m128 vb[C], product[C], magnitude[C], term[C];
+    __m128 vb[C], product[C], magnitude[C], term[C], term_on[C];
     for (int c = 0; c < C; ++c) {
       const int ca = CA == 1 ? 0 : c;
       Side a;
-      if constexpr (GW == 1) {
+      __m128 stopping_bound = _mm_setzero_ps(), half_magnitude = _mm_setzero_ps();
+      if constexpr (kFolded) {
+        a.value = load_halves(values_a + 2 * ca);
+        half_magnitude = load_halves(values_a + 2 * (CA + ca));
+        a.share = a.magnitude =
+            _mm_add_ps(abs_ps(a.value), _mm_add_ps(half_magnitude, half_magnitude));
+        a.bound = load_bound_codes(wa + k.codes_a + ca);
+        stopping_bound = load_bound_codes(wa + k.codes_a + CA + ca);
+      } else if constexpr (GW == 1) {
         a = one_channel<kTexelA>(wa, ca, shared_a, words_a, steps_a, k.codes_a, k.texel_bound_a,
                                  k.shared_bound_a);
       } else {
@@ -475,8 +498,12 @@ struct NarrowPairs {
                                           k.codes_b, k.texel_bound_b, k.shared_bound_b);
       vb[c] = b.value;
       product[c] = _mm_mul_ps(a.value, b.value);
-      magnitude[c] = _mm_mul_ps(a.share, b.share);
+      if constexpr (kFolded)
+        magnitude[c] = folded_magnitude(abs_ps(a.value), half_magnitude, b.share, abs_ps(b.value));
+      else
+        magnitude[c] = _mm_mul_ps(a.share, b.share);
       term[c] = _mm_mul_ps(a.bound, b.bound);
+      term_on[c] = _mm_mul_ps(stopping_bound, b.bound);
       if constexpr (kLinfA || kLinfB)
         term[c] =
             linf_terms<kLinfA, kLinfB>(k, term[c], a.bound, b.bound, a.magnitude, b.magnitude);
@@ -485,7 +512,7 @@ struct NarrowPairs {
       __m128 enough = _mm_castsi128_ps(_mm_set1_epi32(-1));
       for (int c = 0; c < C; ++c) {
         __m128 allowed;
-        if (GW == 1 && !k.shared_a && !k.shared_b)
+        if (GW == 1 && !kFolded && !k.shared_a && !k.shared_b)
           allowed = _mm_add_ps(_mm_mul_ps(_mm_set1_ps(k.per_product), abs_ps(product[c])),
                                _mm_set1_ps(k.allowed[c]));
         else  // the rounding scales with the magnitudes (groups', or shared words'), not |a b|
@@ -497,6 +524,11 @@ struct NarrowPairs {
       internal &= ~unsigned(_mm_movemask_ps(enough));
     }
     const __m128 leaf_area = _mm_andnot_ps(lanes_of(internal), _mm_set1_ps(area));
+    if constexpr (kFolded) {
+      const __m128 internal_area = _mm_and_ps(lanes_of(internal), _mm_set1_ps(area));
+      for (int c = 0; c < C; ++c)
+        sums.bound[c] = _mm_add_ps(sums.bound[c], _mm_mul_ps(term_on[c], internal_area));
+    }
     for (int c = 0; c < C; ++c) {
       sums.value[0][c] = _mm_add_ps(sums.value[0][c], _mm_mul_ps(product[c], leaf_area));
       for (int g = 1; g < GA; ++g) {
@@ -546,7 +578,7 @@ __m512 linf_terms(const DescentConstants<CA, CB>& k, __m512 term, __m512 sa, __m
 
 // Per-pair arithmetic on AVX-512 registers: the four quadrants of all three channels in one
 // register (lanes 4c .. 4c + 3 hold channel c), a grey side repeated in all three.
-template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB>
+template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB, bool kFolded = false>
 struct WidePairs {
   static constexpr int C = 3;
   static constexpr __mmask16 kLanes = 0x0fff;
@@ -653,7 +685,15 @@ struct WidePairs {
                         const std::uint32_t* wb, unsigned internal, float area, Sums& sums) {
     const std::uint32_t* values_a = wa + (kTexelA ? 0 : 1);
     Side a;
-    if constexpr (GW == 1) {
+    __m512 stopping_bound = _mm512_setzero_ps(), half_magnitude = _mm512_setzero_ps();
+    if constexpr (kFolded) {
+      a.value = values(values_a, CA, 0);
+      half_magnitude = values(values_a, CA, 1);
+      a.share = a.magnitude =
+          _mm512_add_ps(abs512(a.value), _mm512_add_ps(half_magnitude, half_magnitude));
+      a.bound = bounds(wa, CA, k.codes_a);
+      stopping_bound = bounds(wa, CA, k.codes_a + CA);
+    } else if constexpr (GW == 1) {
       a = one_group<kTexelA>(wa, CA, CA == 3 && k.shared_a, k.codes_a, k.texel_bound_a,
                              k.shared_bound_a);
     } else {
@@ -672,13 +712,23 @@ struct WidePairs {
     const Side b = one_group<kTexelB>(wb, CB, CB == 3 && k.shared_b, k.codes_b, k.texel_bound_b,
                                       k.shared_bound_b);
     const __m512 product = _mm512_mul_ps(a.value, b.value);
-    const __m512 magnitude = _mm512_mul_ps(a.share, b.share);
+    __m512 magnitude;
+    if constexpr (kFolded) {  // see NarrowPairs::folded_magnitude
+      const __m512 abs_f = abs512(a.value), abs_b = abs512(b.value);
+      const __m512 rounding_b = _mm512_sub_ps(_mm512_add_ps(b.share, b.share), abs_b);
+      const __m512 rounding_f = _mm512_add_ps(_mm512_add_ps(half_magnitude, half_magnitude), abs_f);
+      magnitude =
+          _mm512_mul_ps(_mm512_fmadd_ps(abs_f, rounding_b, _mm512_mul_ps(rounding_f, abs_b)),
+                        _mm512_set1_ps(0.5f));
+    } else {
+      magnitude = _mm512_mul_ps(a.share, b.share);
+    }
     __m512 term = _mm512_mul_ps(a.bound, b.bound);
     if constexpr (kLinfA || kLinfB)
       term = linf_terms<kLinfA, kLinfB>(k, term, a.bound, b.bound, a.magnitude, b.magnitude);
     if (k.targeted) {
       __m512 per_pair;
-      if (GW == 1 && !k.shared_a && !k.shared_b)
+      if (GW == 1 && !kFolded && !k.shared_a && !k.shared_b)
         per_pair = _mm512_mul_ps(_mm512_set1_ps(k.per_product), abs512(product));
       else  // the rounding scales with the magnitudes (groups', or shared words'), not |a b|
         per_pair = _mm512_sub_ps(_mm512_mul_ps(_mm512_set1_ps(k.per_value), abs512(product)),
@@ -701,6 +751,10 @@ struct WidePairs {
           sums.value[g], stop, sums.value[g],
           _mm512_mul_ps(_mm512_mul_ps(values(values_a, CA, g), b.value), area_v));
     sums.bound = _mm512_mask_add_ps(sums.bound, stop, sums.bound, _mm512_mul_ps(term, area_v));
+    if constexpr (kFolded)
+      sums.bound = _mm512_mask_add_ps(
+          sums.bound, __mmask16(internal | internal << 4 | internal << 8), sums.bound,
+          _mm512_mul_ps(_mm512_mul_ps(stopping_bound, b.bound), area_v));
     sums.magnitude =
         _mm512_mask_add_ps(sums.magnitude, stop, sums.magnitude, _mm512_mul_ps(magnitude, area_v));
     return internal;
@@ -747,6 +801,12 @@ class PackedDescent {
   }
 
   const DescentConstants<CA, CB>& constants() const { return k_; }
+  // For a folded tree a: its values may be negative (a combination), and its terms' rounding
+  // floor is floor_weight (FoldedTree).
+  void fold(float floor_weight) {
+    k_.combined = true;
+    k_.total_weight = floor_weight;
+  }
 
  private:
   // Room for two of a real lookup's widest levels (at 128^2, on average about 300 pairs each
@@ -827,17 +887,19 @@ class PackedDescent {
   DescentConstants<CA, CB> k_;
 };
 
-template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB>
+// floor_weight > 0: a is a folded tree (folded_tree.h) whose terms' rounding that weight covers.
+template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB, bool kFolded = false>
 GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, double accuracy,
-                              std::span<const float> weights) {
+                              std::span<const float> weights, float floor_weight = 0) {
   constexpr int C = CA > CB ? CA : CB;
 #if defined(__AVX512F__) && defined(__AVX512BW__) && defined(__AVX512VL__)
-  using Pairs = std::conditional_t<C == 3, WidePairs<CA, CB, GA, GW, kLinfA, kLinfB>,
-                                   NarrowPairs<CA, CB, GA, GW, kLinfA, kLinfB>>;
+  using Pairs = std::conditional_t<C == 3, WidePairs<CA, CB, GA, GW, kLinfA, kLinfB, kFolded>,
+                                   NarrowPairs<CA, CB, GA, GW, kLinfA, kLinfB, kFolded>>;
 #else
-  using Pairs = NarrowPairs<CA, CB, GA, GW, kLinfA, kLinfB>;
+  using Pairs = NarrowPairs<CA, CB, GA, GW, kLinfA, kLinfB, kFolded>;
 #endif
-  const PackedDescent<Pairs, CA, CB> descent(a, b, accuracy, weights);
+  PackedDescent<Pairs, CA, CB> descent(a, b, accuracy, weights);
+  if constexpr (kFolded) descent.fold(floor_weight);
   const typename Pairs::Sums sums = descent.run(0, 0, 0.25f, 0);
   const DescentConstants<CA, CB>& k = descent.constants();
   GroupConvolution result;
@@ -913,6 +975,35 @@ Convolution convolve(const PackedTreeView& a, const PackedTreeView& b,
                      const ConvolutionOptions& options) {
   const GroupConvolution g = dispatch(a, b, 1, options.accuracy);
   return {g.value[0], g.bound};
+}
+
+Convolution convolve(const FoldedTree& a, const PackedTreeView& b,
+                     const ConvolutionOptions& options) {
+  const PackedTreeView folded = a.tree.view();
+  check_compatible(folded.shape(), b.shape());
+#if defined(__SSE4_1__) && defined(__F16C__)
+  const bool linf = b.shape().bounds == BoundKind::linf;
+  const double accuracy = options.accuracy;
+  auto by_channels = [&]<int CA, int CB>() {
+    if (linf)
+      return descend_simd<CA, CB, 1, 1, false, true, true>(folded, b, accuracy, {}, a.floor_weight);
+    return descend_simd<CA, CB, 1, 1, false, false, true>(folded, b, accuracy, {}, a.floor_weight);
+  };
+  const int ca = folded.shape().channels, cb = b.shape().channels;
+  GroupConvolution g;
+  if (ca == 1 && cb == 1)
+    g = by_channels.template operator()<1, 1>();
+  else if (ca == 1)
+    g = by_channels.template operator()<1, 3>();
+  else if (cb == 1)
+    g = by_channels.template operator()<3, 1>();
+  else
+    g = by_channels.template operator()<3, 3>();
+  return {g.value[0], g.bound};
+#else
+  (void)options;
+  throw std::logic_error("convolving a folded tree needs SSE4.1 and F16C (folding_available())");
+#endif
 }
 
 Convolution convolve_scalar(const PackedTreeView& a, const PackedTreeView& b,

@@ -17,6 +17,20 @@ float PackedTreeView::largest_deviation_bound(int n, int g, int c, int q, int le
   return float(double(b) * std::max(1.0, texels_per_side) * (1 + 1e-6));
 }
 
+std::uint8_t bound_code_at_least(double bound, float bound_scale) {
+  auto reaches = [&](int code) {
+    return double(bound_code_value(std::uint8_t(code)) * bound_scale) >= bound;
+  };
+  // Estimated from the bound's float bits, then settled against the decoded values.
+  const auto bits = std::bit_cast<std::uint32_t>(float(bound / bound_scale));
+  int code = bits <= kBoundCodeBias ? 0 : int(std::min((bits - kBoundCodeBias) >> 20, 255u));
+  while (code < 255 && !reaches(code))
+    ++code;
+  while (code > 0 && reaches(code - 1))
+    --code;
+  return std::uint8_t(code);
+}
+
 namespace {
 
 PackedTree pack_tree(const Quadtree& tree, BoundKind bounds, int bounded_groups, bool exact_texels,
@@ -92,21 +106,8 @@ PackedTree pack_tree(const Quadtree& tree, BoundKind bounds, int bounded_groups,
   float bound_scale = float(largest_bound);
   if (double(bound_scale) < largest_bound) bound_scale = std::nextafter(bound_scale, INFINITY);
   out.scales.bound_scale = bound_scale > 0 ? bound_scale : 1.0f;
-  // The float each code decodes to with this scale, for the smallest code that bounds.
-  std::array<float, 256> decoded;
-  for (int code = 0; code < 256; ++code)
-    decoded[code] = bound_code_value(std::uint8_t(code)) * out.scales.bound_scale;
-  // The smallest code whose value reaches b (255 when none does): estimated from b's float
-  // bits, then settled against the decoded values.
-  auto code_for = [&](double b) {
-    const auto bits = std::bit_cast<std::uint32_t>(float(b / out.scales.bound_scale));
-    int code = bits <= kBoundCodeBias ? 0 : int(std::min((bits - kBoundCodeBias) >> 20, 255u));
-    while (code < 255 && double(decoded[code]) < b)
-      ++code;
-    while (code > 0 && double(decoded[code - 1]) >= b)
-      --code;
-    return std::uint8_t(code);
-  };
+  const float scale = out.scales.bound_scale;
+  auto code_for = [scale](double b) { return bound_code_at_least(b, scale); };
 
   // Breadth-first order: node i's children get the next indices, in quadrant order; texel
   // nodes, the last level, hold values alone with exact texels.

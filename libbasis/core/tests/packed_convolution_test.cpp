@@ -18,6 +18,7 @@ namespace basis {
 namespace {
 
 using testing::test_functions;
+using testing::three_groups;
 
 double relative_gap(double a, double b) {
   return std::abs(a - b) / std::max({std::abs(a), std::abs(b), 1e-30});
@@ -167,23 +168,6 @@ TEST(PackedConvolution, GroupsEqualSeparateDenseProductsInSimdAndScalar) {
     EXPECT_EQ(simd.value[0], convolve(ta.view(), tb.view()).value);
     EXPECT_EQ(simd.bound, convolve(ta.view(), tb.view()).bound);
   }
-}
-
-// A three-group function: group 0 one of the test functions (non-negative), groups 1 and 2
-// signed (a smooth wave and random noise), as table entries with derivatives hold them.
-Grid three_groups(const Grid& base, unsigned seed) {
-  Grid g(base.resolution, base.channels, 3);
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> noise(-1, 1);
-  const int n = base.resolution;
-  for (int c = 0; c < base.channels; ++c)
-    for (int y = 0; y < n; ++y)
-      for (int x = 0; x < n; ++x) {
-        g.at(0, c, x, y) = base.at(0, c, x, y);
-        g.at(1, c, x, y) = float(3 * std::sin(9.0 * x / n + c) * std::cos(5.0 * y / n));
-        g.at(2, c, x, y) = noise(rng) * (x > n / 2 ? 4.0f : 0.5f);
-      }
-  return g;
 }
 
 TEST(PackedConvolution, WeightedGroupsLieWithinTheirBoundOfTheTexels) {

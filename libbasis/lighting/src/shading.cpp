@@ -82,7 +82,8 @@ Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, st
                   const ShadingOptions& options) {
   const Vec3 wo = outgoing_direction(options.wo);
   if (!options.normal)
-    return shade(table, lookup_taps(table, wo, options.interpolation), captures, k, options);
+    return shade(table, EntriesAtWo{lookup_taps(table, wo, options.interpolation), std::nullopt},
+                 captures, k, options);
   const Tilt tilt = capture_tilt(captures, k, *options.normal);
   Convolution result = reflect_tilted(table, captures.trees.tree(k), wo, tilt, options.tilt_mode,
                                       {options.convolution, options.interpolation});
@@ -99,15 +100,15 @@ Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, st
   return result;
 }
 
-Convolution shade(const BrdfTableView& table, const std::array<TableTap, 4>& taps,
+Convolution shade(const BrdfTableView& table, const EntriesAtWo& entries,
                   const CaptureSetView& captures, std::size_t k, const ShadingOptions& options) {
   if (options.normal)
     throw std::invalid_argument("shading with the entries already found takes untilted lookups");
   const Vec3 wo = outgoing_direction(options.wo);
-  Convolution result = reflect(table, taps, captures.trees.tree(k), options.convolution);
+  Convolution result = reflect(table, entries, captures.trees.tree(k), options.convolution);
   if (captures.lights_of(k).empty()) return result;
-  add_capture_lights(table, taps, captures, k, std::nullopt, std::nullopt, wo, options.light_brdf,
-                     result);
+  add_capture_lights(table, entries.taps, captures, k, std::nullopt, std::nullopt, wo,
+                     options.light_brdf, result);
   return result;
 }
 
@@ -115,27 +116,31 @@ DenseLookup dense_lookup(const BrdfTableView& table, const Vec3& wo,
                          WoInterpolation interpolation) {
   DenseLookup lookup;
   lookup.wo = outgoing_direction(wo);
-  for (const TableTap& tap : lookup_taps(table, lookup.wo, interpolation))
-    if (tap.reads_anything())
-      lookup.entries.push_back(combine_groups(reconstruct(table.entry(tap.i, tap.j)), tap.weights));
+  bool first = true;
+  for (const TableTap& tap : lookup_taps(table, lookup.wo, interpolation)) {
+    if (!tap.reads_anything()) continue;
+    Grid entry = combine_groups(reconstruct(table.entry(tap.i, tap.j)), tap.weights);
+    if (first)
+      lookup.grid = std::move(entry);
+    else
+      for (std::size_t t = 0; t < entry.texels.size(); ++t)
+        lookup.grid.texels[t] += entry.texels[t];
+    first = false;
+  }
   return lookup;
 }
 
 Convolution shade_dense(const DenseLookup& table, const Grid& radiance,
                         std::span<const DirectionalLight> lights, const Brdf* light_brdf) {
   Convolution result;
-  for (const Grid& entry : table.entries) {
-    const Rgb d = dense_convolve_simd(entry, radiance);
-    for (int c = 0; c < 3; ++c)
-      result.value[c] += float(std::numbers::pi * d[c]);
-  }
+  const Rgb d = dense_convolve_simd(table.grid, radiance);
+  for (int c = 0; c < 3; ++c)
+    result.value[c] = float(std::numbers::pi * d[c]);
   add_lights(lights, std::nullopt, std::nullopt, table.wo, light_brdf, result,
              [&](const Vec3& wi, Color& f, Color&) {
-               for (const Grid& entry : table.entries) {
-                 const auto [x, y] = cosine_hemisphere_texel(wi, entry.resolution);
-                 for (int c = 0; c < 3; ++c)
-                   f[c] += entry.at(0, std::min(c, entry.channels - 1), x, y);
-               }
+               const auto [x, y] = cosine_hemisphere_texel(wi, table.grid.resolution);
+               for (int c = 0; c < 3; ++c)
+                 f[c] += table.grid.at(0, std::min(c, table.grid.channels - 1), x, y);
              });
   return result;
 }

@@ -87,7 +87,7 @@ class FileConvolution {
   std::string warning_;
   std::size_t size_ = 0;
   // The table entries an untilted lookup reads at every point, with their weights.
-  std::optional<std::array<TableTap, 4>> taps_;
+  std::optional<EntriesAtWo> entries_;
   // Dense evaluation: the table's entries around wo, and every tree of the other files as a
   // full-resolution grid, a capture's directional lights splatted into it for products.
   std::optional<DenseLookup> dense_table_;

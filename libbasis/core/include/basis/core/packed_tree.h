@@ -82,6 +82,10 @@ inline float bound_code_value(std::uint8_t c) {
   return std::bit_cast<float>((std::uint32_t(c) << 20) + kBoundCodeBias);
 }
 
+// The smallest bound code whose value times bound_scale is at least `bound` (255 when none is):
+// a bound rounded up to a code, so that it still holds.
+std::uint8_t bound_code_at_least(double bound, float bound_scale);
+
 // How far a half-rounded value may lie from what it rounds, in units of its tree's value scale:
 // half an ulp, 2^-11 of the value, or half the subnormal spacing. An exact texel's bound in
 // halves; in shared-exponent words, half its word's step.

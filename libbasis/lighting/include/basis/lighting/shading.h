@@ -48,23 +48,24 @@ Tilt capture_tilt(const CaptureSetView& captures, std::size_t k, const Vec3& nor
 Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, std::size_t k,
                   const ShadingOptions& options);
 // The same, untilted (std::invalid_argument with options.normal), with the entries around wo
-// found beforehand by lookup_taps: many captures shaded at one wo find them once.
-Convolution shade(const BrdfTableView& table, const std::array<TableTap, 4>& taps,
+// found beforehand by entries_at: many captures shaded at one wo find and fold them once (the
+// lights read the entries themselves).
+Convolution shade(const BrdfTableView& table, const EntriesAtWo& entries,
                   const CaptureSetView& captures, std::size_t k, const ShadingOptions& options);
 
-// The dense counterpart of an untilted lookup at wo, for comparisons: each table entry the
-// lookup reads, reconstructed at full resolution with its groups weighted as the lookup weighs
-// them (one grid per entry).
+// The dense counterpart of an untilted lookup at wo, for comparisons: the table at wo at full
+// resolution, the entries the lookup reads reconstructed with their groups weighted as the
+// lookup weighs them and summed into one grid (as a batch of tree lookups folds them).
 struct DenseLookup {
   Vec3 wo{0, 0, 1};
-  std::vector<Grid> entries;
+  Grid grid;
 };
 DenseLookup dense_lookup(const BrdfTableView& table, const Vec3& wo,
                          WoInterpolation interpolation = WoInterpolation::hermite);
 
-// What shade() returns for an untilted lookup, computed with vectorised dense products of the
-// entries' and the capture's full-resolution grids (the trees' reconstructions give the same
-// value up to rounding); the bound is 0.
+// What shade() returns for an untilted lookup, computed with the vectorised dense product of the
+// table's grid at wo and the capture's full-resolution grid (the trees' reconstructions give
+// the same value up to rounding); the bound is 0.
 Convolution shade_dense(const DenseLookup& table, const Grid& radiance,
                         std::span<const DirectionalLight> lights, const Brdf* light_brdf);
 

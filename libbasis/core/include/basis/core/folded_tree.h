@@ -1,0 +1,61 @@
+// A weighted sum of packed trees folded into one tree, so that many convolutions with the sum
+// (a batch of table lookups at one outgoing direction, one per capture) each descend once, over
+// the union of the trees' nodes, instead of once per tree.
+#pragma once
+
+#include <array>
+#include <span>
+
+#include "basis/core/convolution.h"
+#include "basis/core/packed_tree.h"
+
+namespace basis {
+
+// One term of a sum: groups 0 .. groups - 1 of a packed tree, weighted.
+struct WeightedTerm {
+  PackedTreeView tree;
+  std::array<float, 3> weights = {1, 0, 0};
+  int groups = 1;
+};
+
+// The most terms a fold takes (a table lookup reads four entries at most).
+inline constexpr std::size_t kMaxFoldedTerms = 4;
+
+// sum_t sum_g weights[g] tree_t[g] as one packed tree (l2 bounds, two groups), with what a
+// descent needs to certify a convolution with it as tightly as the terms' own descents would:
+//   group 0: the sum's values; its bounds, the live terms' RMS bounds, sum_t |w| s_t (a term is
+//            live on a quadrant its own tree has, leaf or not);
+//   group 1: values at least half of sum_t |w a_t| over every term (how far the terms' rounding
+//            may move the sum's value); its bounds, the RMS bounds of the terms whose own tree
+//            stops on the quadrant while the sum goes on.
+// A term that stops on a quadrant holds its value below it, as its own descent would; its
+// bound there is added once, against the other tree's quadrant (convolve below).
+struct FoldedTree {
+  PackedTree tree;
+  // The subnormal rounding the terms' values carry, in units of the folded tree's value scale
+  // (sum_t sum_g |w| value_scale_t / value_scale), plus the folded values' own.
+  float floor_weight = 1;
+};
+
+// Whether this build convolves folded trees (it needs SSE4.1 and F16C); convolve() below throws
+// std::logic_error where it does not.
+constexpr bool folding_available() {
+#if defined(__SSE4_1__) && defined(__F16C__)
+  return true;
+#else
+  return false;
+#endif
+}
+
+// Folds 1 to kMaxFoldedTerms terms of equal resolution, l2 bounds on every weighted group and
+// no exact texels (table entries); std::invalid_argument otherwise, or for non-finite weights.
+FoldedTree fold(std::span<const WeightedTerm> terms);
+
+// The integral over [0,1]^2 of the folded sum times group 0 of b and its bound: the sum of the
+// terms' convolutions (convolve_weighted) up to float rounding, in one descent. The bound is at
+// most theirs, up to the rounding up of the folded bound codes; it adds, where the sum goes on
+// but a term stops, area * s_term * sb, the bound that term's own descent would add there.
+Convolution convolve(const FoldedTree& a, const PackedTreeView& b,
+                     const ConvolutionOptions& options = {});
+
+}  // namespace basis

@@ -1,0 +1,285 @@
+#include "basis/core/folded_tree.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#if defined(__SSE4_1__) && defined(__F16C__)
+#include <immintrin.h>
+#endif
+
+namespace basis {
+
+namespace {
+
+void check_terms(std::span<const WeightedTerm> terms) {
+  if (terms.empty()) throw std::invalid_argument("nothing to fold");
+  if (terms.size() > kMaxFoldedTerms)
+    throw std::invalid_argument("cannot fold more than " + std::to_string(kMaxFoldedTerms) +
+                                " trees");
+  const PackedShape& first = terms.front().tree.shape();
+  for (const WeightedTerm& t : terms) {
+    const PackedShape& s = t.tree.shape();
+    if (s.resolution != first.resolution)
+      throw std::invalid_argument("cannot fold trees of different resolutions");
+    if (s.bounds != BoundKind::l2)
+      throw std::invalid_argument("only trees with RMS (l2) bounds fold");
+    if (s.exact_texels) throw std::invalid_argument("trees with exact texels do not fold");
+    if (t.groups < 1 || t.groups > s.bounded_groups)
+      throw std::invalid_argument("a term weights " + std::to_string(t.groups) +
+                                  " groups of a tree with bounds for " +
+                                  std::to_string(s.bounded_groups));
+    for (int g = 0; g < t.groups; ++g)
+      if (!std::isfinite(t.weights[std::size_t(g)]))
+        throw std::invalid_argument("a term's weight is not finite");
+    if (t.tree.node_count() == 0) throw std::invalid_argument("a term's tree is empty");
+  }
+}
+
+#if defined(__SSE4_1__) && defined(__F16C__)
+
+// Where a term stands on a node of the fold: on node `node` of its own tree, or, after its tree
+// stopped above (node < 0), holding that quadrant's weighted values and magnitudes.
+struct TermState {
+  int node = 0;
+  float value[3] = {}, magnitude[3] = {};
+};
+using TermStates = std::array<TermState, kMaxFoldedTerms>;
+
+// A node of the fold before packing, per channel, four quadrants each: the sum's values, half
+// the terms' magnitudes, the live terms' bounds and those of the terms that stop there.
+struct FoldedNode {
+  std::uint32_t link = 0;
+  __m128 value[3], half_magnitude[3], live[3], stopped[3];
+};
+
+// One node of a term's tree, weighted, per channel: values sum_g w_g a_g, magnitudes
+// sum_g |w_g a_g| and bounds sum_g |w_g| s_g.
+struct WeightedNode {
+  std::uint32_t link;
+  __m128 value[3], magnitude[3], bound[3];
+};
+
+__m128 abs_lanes(__m128 x) {
+  return _mm_andnot_ps(_mm_set1_ps(-0.0f), x);
+}
+
+WeightedNode read_node(const WeightedTerm& term, int n, int channels) {
+  const PackedTreeView& t = term.tree;
+  const int tree_channels = t.shape().channels;
+  const std::uint32_t* words = t.node(n);
+  const std::uint32_t* codes = words + 1 + t.shape().value_words();
+  WeightedNode out;
+  out.link = words[0];
+  for (int c = 0; c < channels; ++c) {
+    const int tc = tree_channels == 1 ? 0 : c;
+    __m128 value = _mm_setzero_ps(), magnitude = _mm_setzero_ps(), bound = _mm_setzero_ps();
+    for (int g = 0; g < term.groups; ++g) {
+      const float w = term.weights[std::size_t(g)];
+      const int at = g * tree_channels + tc;
+      const __m128 v = _mm_mul_ps(
+          _mm_cvtph_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(words + 1 + 2 * at))),
+          _mm_set1_ps(w * t.scales().value_scale));
+      value = _mm_add_ps(value, v);
+      magnitude = _mm_add_ps(magnitude, abs_lanes(v));
+      // Bound code values (packed_tree.h): their float bits are (code << 20) + kBoundCodeBias.
+      const __m128i code_bits =
+          _mm_add_epi32(_mm_slli_epi32(_mm_cvtepu8_epi32(_mm_cvtsi32_si128(int(codes[at]))), 20),
+                        _mm_set1_epi32(int(kBoundCodeBias)));
+      bound = _mm_add_ps(bound, _mm_mul_ps(_mm_castsi128_ps(code_bits),
+                                           _mm_set1_ps(std::abs(w) * t.scales().bound_scale)));
+    }
+    out.value[c] = value;
+    out.magnitude[c] = magnitude;
+    out.bound[c] = bound;
+  }
+  return out;
+}
+
+// Lanes of the quadrants whose bit is clear in a 4-bit mask.
+__m128 clear_lanes(std::uint32_t mask) {
+  const __m128i bits = _mm_and_si128(_mm_set1_epi32(int(mask)), _mm_setr_epi32(1, 2, 4, 8));
+  return _mm_castsi128_ps(_mm_cmpeq_epi32(bits, _mm_setzero_si128()));
+}
+
+float lane(__m128 v, int q) {
+  alignas(16) float lanes[4];
+  _mm_store_ps(lanes, v);
+  return lanes[q];
+}
+
+// Four bound codes in one word (byte q for lane q), each the smallest whose value times
+// bound_scale reaches its lane of `bound` (bound_code_at_least, four at a time; bounds up to
+// 1.875 bound_scale): estimated from the float bits of bound / bound_scale, then raised while
+// short of it.
+std::uint32_t bound_codes_at_least(__m128 bound, float bound_scale) {
+  const __m128 scale = _mm_set1_ps(bound_scale);
+  const __m128i bias = _mm_set1_epi32(int(kBoundCodeBias)), largest = _mm_set1_epi32(255);
+  const __m128i bits = _mm_max_epu32(_mm_castps_si128(_mm_div_ps(bound, scale)), bias);
+  __m128i codes = _mm_min_epu32(_mm_srli_epi32(_mm_sub_epi32(bits, bias), 20), largest);
+  for (int round = 0; round < 2; ++round) {
+    const __m128 value =
+        _mm_mul_ps(_mm_castsi128_ps(_mm_add_epi32(_mm_slli_epi32(codes, 20), bias)), scale);
+    // Short lanes are all ones (-1): subtracting raises them by one code.
+    const __m128i short_of = _mm_castps_si128(_mm_cmplt_ps(value, bound));
+    codes = _mm_min_epu32(_mm_sub_epi32(codes, short_of), largest);
+  }
+  const __m128i bytes = _mm_packus_epi16(_mm_packus_epi32(codes, codes), _mm_setzero_si128());
+  return std::uint32_t(_mm_cvtsi128_si32(bytes));
+}
+
+// The fold's nodes, breadth first with the children of a node consecutive (as packed trees lie).
+std::vector<FoldedNode> fold_nodes(std::span<const WeightedTerm> terms, int channels) {
+  std::vector<FoldedNode> nodes;
+  std::vector<TermStates> states;
+  std::size_t estimate = 0;
+  for (const WeightedTerm& t : terms)
+    estimate = std::max(estimate, std::size_t(t.tree.node_count()));
+  // The union of the terms' nodes: a little more than the largest term's (1.07-1.18 times for
+  // the default tables' entries around a wo).
+  nodes.reserve(estimate + estimate / 4);
+  states.reserve(estimate + estimate / 4);
+  states.emplace_back();  // every term at its root
+  const std::size_t count = terms.size();
+  for (std::size_t n = 0; n < states.size(); ++n) {
+    const TermStates here = states[n];
+    std::array<WeightedNode, kMaxFoldedTerms> term_nodes;
+    FoldedNode out;
+    std::uint32_t refined = 0;
+    for (int c = 0; c < channels; ++c)
+      out.value[c] = out.half_magnitude[c] = out.live[c] = out.stopped[c] = _mm_setzero_ps();
+    for (std::size_t t = 0; t < count; ++t) {
+      const TermState& s = here[t];
+      if (s.node < 0) {
+        for (int c = 0; c < channels; ++c) {
+          out.value[c] = _mm_add_ps(out.value[c], _mm_set1_ps(s.value[c]));
+          out.half_magnitude[c] = _mm_add_ps(out.half_magnitude[c], _mm_set1_ps(s.magnitude[c]));
+        }
+        continue;
+      }
+      const WeightedNode& w = term_nodes[t] = read_node(terms[t], s.node, channels);
+      refined |= w.link & 15u;
+      const __m128 stops = clear_lanes(w.link & 15u);
+      for (int c = 0; c < channels; ++c) {
+        out.value[c] = _mm_add_ps(out.value[c], w.value[c]);
+        out.half_magnitude[c] = _mm_add_ps(out.half_magnitude[c], w.magnitude[c]);
+        out.live[c] = _mm_add_ps(out.live[c], w.bound[c]);
+        out.stopped[c] = _mm_add_ps(out.stopped[c], _mm_and_ps(stops, w.bound[c]));
+      }
+    }
+    // Half the magnitudes, and 2^-8 more for the float rounding of these sums.
+    for (int c = 0; c < channels; ++c)
+      out.half_magnitude[c] = _mm_mul_ps(out.half_magnitude[c], _mm_set1_ps(0.5f + 0x1p-9f));
+    if (refined) out.link = std::uint32_t(states.size()) << 4 | refined;
+    for (int q = 0; q < 4; ++q) {
+      if (!(refined >> q & 1)) continue;
+      TermStates below = here;
+      for (std::size_t t = 0; t < count; ++t) {
+        if (here[t].node < 0) continue;
+        const std::uint32_t link = term_nodes[t].link;
+        if (link >> q & 1) {
+          below[t].node = int((link >> 4) + unsigned(std::popcount(link & ((1u << q) - 1))));
+          continue;
+        }
+        below[t].node = -1;
+        for (int c = 0; c < channels; ++c) {
+          below[t].value[c] = lane(term_nodes[t].value[c], q);
+          below[t].magnitude[c] = lane(term_nodes[t].magnitude[c], q);
+        }
+      }
+      states.push_back(below);
+    }
+    nodes.push_back(out);
+  }
+  return nodes;
+}
+
+// The fold's nodes packed (packed_tree.h: two groups of halves, l2 bound codes for both): values
+// to the nearest half, half magnitudes rounded up, the live bounds plus how far their value
+// moved, every bound rounded up to its code.
+PackedTree pack_folded(const std::vector<FoldedNode>& nodes, int resolution, int channels) {
+  PackedTree out;
+  out.shape = {resolution, channels, 2, BoundKind::l2, 2};
+  out.texel_start = nodes.size();
+  __m128 largest = _mm_setzero_ps();
+  for (const FoldedNode& n : nodes)
+    for (int c = 0; c < channels; ++c)
+      largest = _mm_max_ps(largest, _mm_max_ps(abs_lanes(n.value[c]), n.half_magnitude[c]));
+  float largest_value = 0;
+  for (int q = 0; q < 4; ++q)
+    largest_value = std::max(largest_value, lane(largest, q));
+  out.scales.value_scale =
+      largest_value > 0 ? std::ldexp(1.0f, std::ilogb(largest_value) - 14) : 1.0f;
+  const __m128 to_half = _mm_set1_ps(1 / out.scales.value_scale);
+  const __m128 from_half = _mm_set1_ps(out.scales.value_scale);
+  // Halves, and the live bounds with the value's rounding added (and 2^-20 of themselves for the
+  // float sums), before the bound scale is known.
+  std::vector<std::uint32_t> words(nodes.size() * std::size_t(out.shape.words_per_node()), 0);
+  std::vector<std::array<float, 4>> bounds(nodes.size() * std::size_t(2 * channels));
+  __m128 largest_bound = _mm_setzero_ps();
+  const std::size_t stride = std::size_t(out.shape.words_per_node());
+  for (std::size_t n = 0; n < nodes.size(); ++n) {
+    std::uint32_t* w = words.data() + n * stride;
+    w[0] = nodes[n].link;
+    for (int c = 0; c < channels; ++c) {
+      const __m128 scaled = _mm_mul_ps(nodes[n].value[c], to_half);
+      const __m128i value = _mm_cvtps_ph(scaled, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
+      const __m128i magnitude = _mm_cvtps_ph(_mm_mul_ps(nodes[n].half_magnitude[c], to_half),
+                                             _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC);
+      _mm_storel_epi64(reinterpret_cast<__m128i*>(w + 1 + 2 * c), value);
+      _mm_storel_epi64(reinterpret_cast<__m128i*>(w + 1 + 2 * (channels + c)), magnitude);
+      const __m128 moved =
+          _mm_mul_ps(abs_lanes(_mm_sub_ps(_mm_cvtph_ps(value), scaled)), from_half);
+      const __m128 live =
+          _mm_mul_ps(_mm_add_ps(nodes[n].live[c], moved), _mm_set1_ps(1 + 0x1p-20f));
+      const __m128 stopped = _mm_mul_ps(nodes[n].stopped[c], _mm_set1_ps(1 + 0x1p-20f));
+      _mm_storeu_ps(bounds[n * std::size_t(2 * channels) + std::size_t(c)].data(), live);
+      _mm_storeu_ps(bounds[n * std::size_t(2 * channels) + std::size_t(channels + c)].data(),
+                    stopped);
+      largest_bound = _mm_max_ps(largest_bound, _mm_max_ps(live, stopped));
+    }
+  }
+  float bound_scale = 0;
+  for (int q = 0; q < 4; ++q)
+    bound_scale = std::max(bound_scale, lane(largest_bound, q));
+  out.scales.bound_scale = bound_scale > 0 ? bound_scale : 1.0f;
+  const std::size_t codes_at = 1 + std::size_t(out.shape.value_words());
+  for (std::size_t n = 0; n < nodes.size(); ++n)
+    for (std::size_t k = 0; k < std::size_t(2 * channels); ++k)
+      words[n * stride + codes_at + k] = bound_codes_at_least(
+          _mm_loadu_ps(bounds[n * std::size_t(2 * channels) + k].data()), out.scales.bound_scale);
+  out.words = std::move(words);
+  return out;
+}
+
+#endif  // SSE4.1 and F16C
+
+}  // namespace
+
+FoldedTree fold(std::span<const WeightedTerm> terms) {
+  check_terms(terms);
+#if defined(__SSE4_1__) && defined(__F16C__)
+  int channels = 1;
+  for (const WeightedTerm& t : terms)
+    if (t.tree.shape().channels == 3) channels = 3;
+  const int resolution = terms.front().tree.shape().resolution;
+  FoldedTree folded{pack_folded(fold_nodes(terms, channels), resolution, channels), 1};
+  // The terms' subnormal rounding, in the folded tree's value units.
+  for (const WeightedTerm& t : terms) {
+    double weight = 0;
+    for (int g = 0; g < t.groups; ++g)
+      weight += std::abs(double(t.weights[std::size_t(g)]));
+    folded.floor_weight +=
+        float(weight * double(t.tree.scales().value_scale) / folded.tree.scales.value_scale);
+  }
+  folded.floor_weight = std::nextafter(folded.floor_weight, INFINITY);
+  return folded;
+#else
+  throw std::logic_error("folding trees needs SSE4.1 and F16C (folding_available())");
+#endif
+}
+
+}  // namespace basis

@@ -1,0 +1,189 @@
+// Folded trees: a weighted sum of trees folded into one convolves to the dense product of the
+// terms' texels within its bound, to the terms' own descents' values and, up to the rounding up
+// of the folded bound codes, their summed bounds; accuracy targets keep the bound; what cannot
+// fold is refused.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "basis/core/folded_tree.h"
+#include "basis/core/projection.h"
+#include "support/test_functions.h"
+
+namespace basis {
+namespace {
+
+using testing::test_functions;
+using testing::three_groups;
+
+struct Term {
+  Grid grid;  // three groups
+  PackedTree tree;
+  std::array<float, 3> weights;
+  int groups;
+};
+
+// Terms over different test functions, with weights as Hermite interpolation gives them (some
+// negative) and one, two or three groups.
+std::vector<Term> make_terms(int channels, std::size_t count) {
+  const std::vector<std::array<float, 3>> weights = {
+      {0.5f, 0.12f, -0.05f}, {0.3f, -0.1f, 0.04f}, {0.15f, 0.08f, 0}, {0.05f, 0, 0}};
+  const std::vector<testing::NamedGrid> functions = test_functions(32, channels, 51);
+  std::vector<Term> terms;
+  for (std::size_t t = 0; t < count; ++t) {
+    Grid grid = three_groups(functions[(2 * t + 1) % functions.size()].grid, 52 + unsigned(t));
+    const Quadtree tree =
+        project(grid, {.tolerance = 0.1, .cut_on_all_groups = true, .group_tolerance_scale = 1});
+    const std::array<float, 3> w = weights[t];
+    const int groups = w[2] != 0 ? 3 : w[1] != 0 ? 2 : 1;
+    terms.push_back({std::move(grid), pack(tree, BoundKind::l2, 3), w, groups});
+  }
+  return terms;
+}
+
+TEST(FoldedTree, WithinTheBoundOfTheTexelsAndAtMostTheTermsBounds) {
+  for (const auto& [channels_a, channels_b] : {std::pair{1, 1}, {3, 3}, {1, 3}, {3, 1}})
+    for (const std::size_t count : {1, 2, 4}) {
+      const std::vector<Term> terms = make_terms(channels_a, count);
+      std::vector<WeightedTerm> weighted;
+      for (const Term& t : terms)
+        weighted.push_back({t.tree.view(), t.weights, t.groups});
+      const FoldedTree folded = fold(weighted);
+      for (const auto& [name_b, grid_b] : test_functions(64, channels_b, 53)) {
+        // Captures: RGB with exact texels in shared-exponent words; grey in halves.
+        const Quadtree tree_b = project(grid_b, {.tolerance = 0.1});
+        const PackedTree b = channels_b == 3 ? pack_exact_texels(tree_b) : pack(tree_b);
+        for (const double accuracy : {0.0, 0.02, 0.1}) {
+          const std::string what =
+              std::to_string(count) + " terms of " + std::to_string(channels_a) + " channels x " +
+              name_b + " (" + std::to_string(channels_b) + ") accuracy " + std::to_string(accuracy);
+          const Convolution result = convolve(folded, b.view(), {accuracy});
+          Convolution separate;
+          for (const Term& t : terms) {
+            const Convolution c =
+                convolve_weighted(t.tree.view(), std::span(t.weights.data(), std::size_t(t.groups)),
+                                  b.view(), {accuracy});
+            for (int ch = 0; ch < 3; ++ch) {
+              separate.value[ch] += c.value[ch];
+              separate.bound[ch] += c.bound[ch];
+            }
+          }
+          for (int c = 0; c < 3; ++c) {
+            const int ca = channels_a == 1 ? 0 : c, cb = channels_b == 1 ? 0 : c;
+            // The dense product of the terms' texels (32^2, each over 2 x 2 texels of b).
+            double texels = 0, magnitude = 0;
+            for (int y = 0; y < 64; ++y)
+              for (int x = 0; x < 64; ++x) {
+                double f = 0, f_magnitude = 0;
+                for (const Term& t : terms)
+                  for (int g = 0; g < t.groups; ++g) {
+                    f += t.weights[g] * t.grid.at(g, ca, x / 2, y / 2);
+                    f_magnitude += std::abs(t.weights[g] * t.grid.at(g, ca, x / 2, y / 2));
+                  }
+                texels += f * grid_b.at(0, cb, x, y);
+                magnitude += f_magnitude * std::abs(grid_b.at(0, cb, x, y));
+              }
+            texels /= 64.0 * 64;
+            magnitude /= 64.0 * 64;
+            EXPECT_LE(std::abs(result.value[c] - texels),
+                      result.bound[c] * (1 + 1e-4) + 1e-6 * magnitude)
+                << what << " channel " << c << " bound " << result.bound[c];
+            if (accuracy != 0) continue;
+            // The terms' own descents: the same value up to halves' rounding (the folded sum's,
+            // and shared-exponent quadrants read at other levels), and a bound at most theirs
+            // but for the folded codes' rounding up (1/8 at most) and the folded sum's own
+            // rounding (kHalfRounding of the magnitude).
+            EXPECT_LE(std::abs(result.value[c] - separate.value[c]), 4e-3 * magnitude) << what;
+            EXPECT_LE(result.bound[c], 1.125 * separate.bound[c] + 0x1p-10 * magnitude)
+                << what << " channel " << c;
+          }
+        }
+      }
+    }
+}
+
+// A term that stops while the sum goes on adds its bound where it stops: without that, a
+// coarse term against a fine one would lose its bound entirely. A constant-in-value but
+// varying term (its texels a checkerboard, its tree one node) against a light that matches
+// the checkerboard: the value misses the product by the texels' correlation, which the bound
+// must carry.
+TEST(FoldedTree, ATermThatStopsEarlyKeepsItsBound) {
+  const int n = 32;
+  Grid checker(n, 1), fine(n, 1, 3), light(n * 2, 1);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      checker.at(0, 0, x, y) = (x + y) % 2 ? 1.5f : 0.5f;
+      fine.at(0, 0, x, y) = x < n / 2 ? 0.1f * float(x) : 2.0f;
+    }
+  for (int y = 0; y < 2 * n; ++y)
+    for (int x = 0; x < 2 * n; ++x)
+      light.at(0, 0, x, y) = (x / 2 + y / 2) % 2 ? 3.0f : 1.0f;
+  // The checkerboard is cut at the root (tolerance far above its deviation); the other term
+  // and the light are refined to their texels.
+  const PackedTree coarse = pack(project(checker, {.tolerance = 10}));
+  ASSERT_EQ(coarse.node_count(), 1);
+  const PackedTree refined = pack(project(fine, {.tolerance = 0}), BoundKind::l2, 1);
+  const PackedTree b = pack(project(light, {.tolerance = 0}));
+  const std::vector<WeightedTerm> terms = {{coarse.view(), {0.7f, 0, 0}, 1},
+                                           {refined.view(), {0.3f, 0, 0}, 1}};
+  const FoldedTree folded = fold(terms);
+  ASSERT_GT(folded.tree.node_count(), 1);
+  const Convolution result = convolve(folded, b.view());
+  double texels = 0;
+  for (int y = 0; y < 2 * n; ++y)
+    for (int x = 0; x < 2 * n; ++x)
+      texels += (0.7 * checker.at(0, 0, x / 2, y / 2) + 0.3 * fine.at(0, 0, x / 2, y / 2)) *
+                light.at(0, 0, x, y);
+  texels /= 4.0 * n * n;
+  // The product differs from the trees' by the checkerboard's correlation with the light.
+  EXPECT_GT(std::abs(result.value[0] - texels), 0.05 * texels);
+  EXPECT_LE(std::abs(result.value[0] - texels), result.bound[0]);
+}
+
+// Rounding at its worst: each term's half, the folded sum's own half and the light's half all
+// round by (nearly) half an ulp the same way, so that the value misses the product by about
+// three half-ulps, all of which the bound's rounding terms must carry.
+TEST(FoldedTree, RoundingOfTermsSumAndLightStaysWithinTheBound) {
+  const float ulp = 0x1p-10f;  // of a half in [1, 2)
+  auto constant = [](int n, float v) {
+    Grid g(n, 1);
+    for (float& t : g.texels)
+      t = v;
+    return g;
+  };
+  // Term 1 rounds down to 1, term 2 down to 1 + ulp; their mean, 1 + ulp / 2, down to 1 (ties
+  // to even); the light down to 1.
+  const float a1 = 1 + 0.49f * ulp, a2 = 1 + 1.49f * ulp, light = 1 + 0.49f * ulp;
+  const PackedTree t1 = pack(project(constant(4, a1), {.tolerance = 0}));
+  const PackedTree t2 = pack(project(constant(4, a2), {.tolerance = 0}));
+  const PackedTree b = pack(project(constant(4, light), {.tolerance = 0}));
+  const std::vector<WeightedTerm> terms = {{t1.view(), {0.5f, 0, 0}, 1},
+                                           {t2.view(), {0.5f, 0, 0}, 1}};
+  const Convolution result = convolve(fold(terms), b.view());
+  const double truth = (0.5 * a1 + 0.5 * a2) * double(light);
+  const double error = std::abs(double(result.value[0]) - truth);
+  EXPECT_GT(error, 1.4 * ulp);  // the test is one the bound could fail
+  EXPECT_LE(error, result.bound[0]);
+}
+
+TEST(FoldedTree, RefusesWhatCannotFold) {
+  const Grid grid = three_groups(test_functions(16, 1, 54)[1].grid, 55);
+  const Quadtree tree = project(grid, {.tolerance = 0.1, .cut_on_all_groups = true});
+  const PackedTree l2 = pack(tree, BoundKind::l2, 3), linf = pack(tree, BoundKind::linf, 3);
+  const PackedTree one_bounded = pack(tree, BoundKind::l2, 1);
+  const PackedTree exact = pack_exact_texels(project(test_functions(16, 3, 56)[0].grid, {}));
+  const PackedTree other_resolution = pack(project(test_functions(32, 1, 57)[0].grid, {}));
+  auto folds = [](std::vector<WeightedTerm> terms) { return fold(terms).tree.node_count() > 0; };
+  EXPECT_TRUE(folds({{l2.view(), {1, 0.5f, 0.25f}, 3}}));
+  EXPECT_THROW(folds({}), std::invalid_argument);
+  EXPECT_THROW(folds({{linf.view(), {1, 0, 0}, 1}}), std::invalid_argument);
+  EXPECT_THROW(folds({{one_bounded.view(), {1, 1, 0}, 2}}), std::invalid_argument);
+  EXPECT_THROW(folds({{exact.view(), {1, 0, 0}, 1}}), std::invalid_argument);
+  EXPECT_THROW(folds({{l2.view(), {1, 0, 0}, 1}, {other_resolution.view(), {1, 0, 0}, 1}}),
+               std::invalid_argument);
+  EXPECT_THROW(folds({{l2.view(), {NAN, 0, 0}, 1}}), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace basis
