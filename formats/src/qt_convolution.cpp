@@ -73,12 +73,13 @@ FileConvolution::FileConvolution(const QtFile& a, const QtFile& b, const Shading
       warning_ = std::string(e.what()) + "; directional lights use the table's texels";
     }
   }
-  // An untilted lookup reads the same entries at every point: found once (a wo that lookups
-  // refuse is refused at the first lookup, as before).
+  // An untilted lookup reads the same entries at every point: found and folded once (a wo that
+  // lookups refuse is refused at the first lookup, as before). Dense products use their own
+  // grid.
   const Vec3 wo = unit_direction(shading_.wo);
-  if (table_ && !shading_.normal && wo != Vec3::Zero() && wo.z() >= 0)
-    entries_ =
-        entries_at(table_->brdf_table(), wo, shading_.interpolation, shaded_captures().size());
+  if (table_ && !shading_.normal && wo != Vec3::Zero() && wo.z() >= 0 &&
+      evaluation != Evaluation::dense)
+    entries_ = entries_at(table_->brdf_table(), wo, shading_.interpolation);
   if (evaluation == Evaluation::dense) {
     if (shading_.normal)
       throw std::invalid_argument("dense evaluation takes untilted lookups only (no --normal)");
@@ -124,9 +125,9 @@ Convolution FileConvolution::operator()(std::size_t k) const {
 int FileConvolution::convolutions_per_result() const {
   if (!table_) return 1;
   if (shading_.normal) return shading_.tilt_mode == TiltCompensation::compensated ? 8 : 4;
-  // Untilted: one descent of the folded entries, or one per entry around wo with a weight
-  // (lookups skip the others).
-  if (entries_ && entries_->folded) return 1;
+  // Untilted: one dense product with the table's grid at wo, one descent of the folded entries,
+  // or one per entry around wo with a weight (lookups skip the others).
+  if (dense_table_ || (entries_ && entries_->folded)) return 1;
   int taps = 0;
   for (const TableTap& tap : lookup_taps(table_->brdf_table(), shading_.wo, shading_.interpolation))
     taps += tap.reads_anything();

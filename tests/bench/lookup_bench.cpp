@@ -32,7 +32,7 @@ void BM_TreeLookups(benchmark::State& state) {
   options.convolution.accuracy = double(state.range(1)) / 1000;
   const bool hot = state.range(2) != 0;
   // The entries around wo, found and folded once as the dense lookup builds its grid once.
-  const EntriesAtWo entries = entries_at(table, options.wo, options.interpolation, captures.size());
+  const EntriesAtWo entries = entries_at(table, options.wo, options.interpolation);
   for (auto _ : state)
     for (std::size_t k = 0; k < captures.size(); ++k)
       benchmark::DoNotOptimize(shade(table, entries, captures, hot ? 0 : k, options));

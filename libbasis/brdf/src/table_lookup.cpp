@@ -52,10 +52,8 @@ Convolution reflect(const BrdfTableView& table, const PackedTreeView& radiance, 
   });
 }
 
-EntriesAtWo entries_at(const BrdfTableView& table, const Vec3& wo, WoInterpolation interpolation,
-                       std::size_t lookups) {
+EntriesAtWo entries_at(const BrdfTableView& table, const Vec3& wo, WoInterpolation interpolation) {
   EntriesAtWo entries{lookup_taps(table, wo, interpolation), std::nullopt};
-  if (lookups < kFoldingBatch) return entries;
   std::vector<WeightedTerm> terms;
   bool derivatives = false;
   for (const TableTap& tap : entries.taps) {

@@ -77,8 +77,7 @@ TEST_P(TableAlbedo, MatchesNumericIntegration) {
       const Convolution c = reflect(table.view(), light.view(), wo);
       // The same entries found and folded beforehand, as a batch of lookups at wo reads them.
       const Convolution folded = reflect(
-          table.view(), entries_at(table.view(), wo, WoInterpolation::hermite, kFoldingBatch),
-          light.view());
+          table.view(), entries_at(table.view(), wo, WoInterpolation::hermite), light.view());
       for (int ch = 0; ch < channels; ++ch) {
         const double expected = testing::reference_albedo(m.brdf, wo, ch);
         EXPECT_NEAR(c.value[ch], expected, m.tolerance * expected)
@@ -109,10 +108,7 @@ TEST(FoldedEntries, GiveTheEntriesOwnLookups) {
   int folded_count = 0;
   for (const Vec3& wo :
        {outgoing(0, 0), outgoing(30, 0), outgoing(33, 17), outgoing(60, 200), outgoing(80, 45)}) {
-    const EntriesAtWo entries =
-        entries_at(table.view(), wo, WoInterpolation::hermite, kFoldingBatch);
-    // A batch too small to pay for the fold does without.
-    EXPECT_FALSE(entries_at(table.view(), wo, WoInterpolation::hermite, kFoldingBatch - 1).folded);
+    const EntriesAtWo entries = entries_at(table.view(), wo, WoInterpolation::hermite);
     int read = 0;
     bool derivatives = false;
     for (const TableTap& tap : entries.taps) {

@@ -74,6 +74,8 @@ WeightedNode read_node(const WeightedTerm& term, int n, int channels) {
   const std::uint32_t* codes = words + 1 + t.shape().value_words();
   WeightedNode out;
   out.link = words[0];
+  for (int c = 0; c < 3; ++c)
+    out.value[c] = out.magnitude[c] = out.bound[c] = _mm_setzero_ps();
   for (int c = 0; c < channels; ++c) {
     const int tc = tree_channels == 1 ? 0 : c;
     __m128 value = _mm_setzero_ps(), magnitude = _mm_setzero_ps(), bound = _mm_setzero_ps();
@@ -112,9 +114,10 @@ float lane(__m128 v, int q) {
 }
 
 // Four bound codes in one word (byte q for lane q), each the smallest whose value times
-// bound_scale reaches its lane of `bound` (bound_code_at_least, four at a time; bounds up to
-// 1.875 bound_scale): estimated from the float bits of bound / bound_scale, then raised while
-// short of it.
+// bound_scale reaches its lane of `bound` (bound_code_at_least, four at a time), for bounds up
+// to bound_scale (the fold's scale is its largest bound; larger ones would take code 255, short
+// of them): estimated from the float bits of bound / bound_scale, which never overshoot, then
+// raised while short of it (once is enough; twice guards the float product's rounding).
 std::uint32_t bound_codes_at_least(__m128 bound, float bound_scale) {
   const __m128 scale = _mm_set1_ps(bound_scale);
   const __m128i bias = _mm_set1_epi32(int(kBoundCodeBias)), largest = _mm_set1_epi32(255);
@@ -138,8 +141,8 @@ std::vector<FoldedNode> fold_nodes(std::span<const WeightedTerm> terms, int chan
   std::size_t estimate = 0;
   for (const WeightedTerm& t : terms)
     estimate = std::max(estimate, std::size_t(t.tree.node_count()));
-  // The union of the terms' nodes: a little more than the largest term's (1.07-1.18 times for
-  // the default tables' entries around a wo).
+  // The union of the terms' nodes: a little more than the largest term's (1.07-1.26 times for
+  // the main job's tables' entries around a wo).
   nodes.reserve(estimate + estimate / 4);
   states.reserve(estimate + estimate / 4);
   states.emplace_back();  // every term at its root
@@ -149,7 +152,7 @@ std::vector<FoldedNode> fold_nodes(std::span<const WeightedTerm> terms, int chan
     std::array<WeightedNode, kMaxFoldedTerms> term_nodes;
     FoldedNode out;
     std::uint32_t refined = 0;
-    for (int c = 0; c < channels; ++c)
+    for (int c = 0; c < 3; ++c)
       out.value[c] = out.half_magnitude[c] = out.live[c] = out.stopped[c] = _mm_setzero_ps();
     for (std::size_t t = 0; t < count; ++t) {
       const TermState& s = here[t];
@@ -170,7 +173,9 @@ std::vector<FoldedNode> fold_nodes(std::span<const WeightedTerm> terms, int chan
         out.stopped[c] = _mm_add_ps(out.stopped[c], _mm_and_ps(stops, w.bound[c]));
       }
     }
-    // Half the magnitudes, and 2^-8 more for the float rounding of these sums.
+    // Half the magnitudes, and 2^-8 more: for the float rounding of these sums, and for the
+    // second-order part (about 2^-22 |w a b|) of a stopped term's rounding, which its quadrants
+    // below carry through these magnitudes.
     for (int c = 0; c < channels; ++c)
       out.half_magnitude[c] = _mm_mul_ps(out.half_magnitude[c], _mm_set1_ps(0.5f + 0x1p-9f));
     if (refined) out.link = std::uint32_t(states.size()) << 4 | refined;

@@ -69,8 +69,7 @@ TEST(Capture, ShadingWithEntriesFoundBeforehandGivesTheConstantAndIsUntiltedOnly
   const CaptureSet set = capture_set(env, nullptr, points, {});
   ShadingOptions shading;
   shading.wo = Vec3(0.3, 0.2, 0.9).normalized();
-  const EntriesAtWo entries =
-      entries_at(table.view(), shading.wo, shading.interpolation, kFoldingBatch);
+  const EntriesAtWo entries = entries_at(table.view(), shading.wo, shading.interpolation);
   EXPECT_TRUE(entries.folded.has_value() || !folding_available());
   for (std::size_t k = 0; k < points.size(); ++k) {
     const Convolution lo = shade(table.view(), entries, set.view(), k, shading);

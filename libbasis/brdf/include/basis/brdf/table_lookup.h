@@ -35,26 +35,23 @@ std::array<TableTap, 4> lookup_taps(const BrdfTableView& table, const Vec3& wo,
 Convolution reflect(const BrdfTableView& table, const PackedTreeView& radiance, const Vec3& wo,
                     const LookupOptions& options = {});
 
-// The entries a batch of lookups at one wo reads (lookup_taps), found once, and, for batches of
-// at least kFoldingBatch lookups, folded with their weights into one tree (folded_tree.h): each
-// lookup then descends once, over the union of the entries' nodes, instead of once per entry.
-// Folded when more than one entry is read, or one with its derivatives, from a table with RMS
-// (l2) bounds, in a build that convolves folded trees.
+// The entries a batch of lookups at one wo reads (lookup_taps), found once, and folded with
+// their weights into one tree (folded_tree.h): each lookup then descends once, over the union
+// of the entries' nodes, instead of once per entry. Folded when more than one entry is read,
+// or one with its derivatives, from a table with RMS (l2) bounds, in a build that convolves
+// folded trees; whatever the batch's size, so that a batch split in parts gives the same
+// results. Folding costs 0.03-1.1 ms for the main job's tables (up to about 4 ms the first time
+// in a process, as its memory is first touched).
 struct EntriesAtWo {
   std::array<TableTap, 4> taps;
   std::optional<FoldedTree> folded;
 };
-// Folding costs about 0.1-0.3 ms (the main job's tables; about 1.7 ms the first time in a
-// process, as its memory is first touched) and saves 1-5 us per lookup there: worth it for
-// batches of some hundreds of lookups, not for a few.
-inline constexpr std::size_t kFoldingBatch = 256;
-EntriesAtWo entries_at(const BrdfTableView& table, const Vec3& wo, WoInterpolation interpolation,
-                       std::size_t lookups);
+EntriesAtWo entries_at(const BrdfTableView& table, const Vec3& wo, WoInterpolation interpolation);
 
 // reflect() with the entries around wo already found (entries_at): many radiance trees looked
-// up at one wo find and fold them once. The same value up to float rounding; folded, the bound
-// is at most the entries' summed bounds, up to the rounding up of the folded bounds (at most
-// 1/8 of each), and the accuracy target applies to the folded sum as a whole.
+// up at one wo find and fold them once. Folded, the value is the entries' up to the folded
+// sum's rounding to halves, and the bound theirs but for that rounding and the folded bound
+// codes' rounding up (FoldedTree); the accuracy target applies to the folded sum as a whole.
 Convolution reflect(const BrdfTableView& table, const EntriesAtWo& entries,
                     const PackedTreeView& radiance, const ConvolutionOptions& options = {});
 

@@ -51,10 +51,13 @@ constexpr bool folding_available() {
 // no exact texels (table entries); std::invalid_argument otherwise, or for non-finite weights.
 FoldedTree fold(std::span<const WeightedTerm> terms);
 
-// The integral over [0,1]^2 of the folded sum times group 0 of b and its bound: the sum of the
-// terms' convolutions (convolve_weighted) up to float rounding, in one descent. The bound is at
-// most theirs, up to the rounding up of the folded bound codes; it adds, where the sum goes on
-// but a term stops, area * s_term * sb, the bound that term's own descent would add there.
+// The integral over [0,1]^2 of the folded sum times group 0 of b and its bound, in one descent:
+// the sum of the terms' convolutions (convolve_weighted) up to the rounding of the folded sum to
+// halves. The bound charges each term's quadrant bounds where that term's own descent would:
+// where the sum goes on but a term stops, it adds area * s_term * sb. It differs from the
+// terms' summed bounds by the folded codes' rounding up (at most 1/8), the folded sum's own
+// rounding (2^-11 |f b| a quadrant, which can make the rounding terms 1.5 times theirs), and,
+// against linf bounds of b, by taking their alternative only where the sum stops.
 Convolution convolve(const FoldedTree& a, const PackedTreeView& b,
                      const ConvolutionOptions& options = {});
 
