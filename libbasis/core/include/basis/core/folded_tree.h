@@ -22,7 +22,8 @@ struct WeightedTerm {
 inline constexpr std::size_t kMaxFoldedTerms = 4;
 
 // sum_t sum_g weights[g] tree_t[g] as one packed tree (l2 bounds, two groups), with what a
-// descent needs to certify a convolution with it as tightly as the terms' own descents would:
+// descent needs to certify a convolution with it nearly as tightly as the terms' own descents
+// would (see convolve below):
 //   group 0: the sum's values; its bounds, the live terms' RMS bounds, sum_t |w| s_t (a term is
 //            live on a quadrant its own tree has, leaf or not);
 //   group 1: values at least half of sum_t |w a_t| over every term (how far the terms' rounding
@@ -48,7 +49,8 @@ constexpr bool folding_available() {
 }
 
 // Folds 1 to kMaxFoldedTerms terms of equal resolution, l2 bounds on every weighted group and
-// no exact texels (table entries); std::invalid_argument otherwise, or for non-finite weights.
+// no exact texels (table entries); std::invalid_argument otherwise, or for non-finite weights;
+// std::logic_error in a build without folding_available().
 FoldedTree fold(std::span<const WeightedTerm> terms);
 
 // The integral over [0,1]^2 of the folded sum times group 0 of b and its bound, in one descent:
