@@ -80,12 +80,11 @@ Vec3 to_vec3(const std::array<double, 3>& a) {
   return {a[0], a[1], a[2]};
 }
 
-// The unit vector along a whatever its length; ValueError naming `what` for a zero or
+// The unit vector along v whatever its length; ValueError naming `what` for a zero or
 // non-finite vector.
-Vec3 to_direction(const std::array<double, 3>& a, const char* what) {
-  const Vec3 unit = unit_direction(to_vec3(a));
-  if (unit == Vec3::Zero())
-    throw std::invalid_argument(std::string(what) + " must be a finite non-zero vector");
+Vec3 to_direction(const Vec3& v, const std::string& what) {
+  const Vec3 unit = unit_direction(v);
+  if (unit == Vec3::Zero()) throw std::invalid_argument(what + " must be a finite non-zero vector");
   return unit;
 }
 
@@ -421,16 +420,13 @@ PYBIND11_MODULE(basis, m) {
               throw std::invalid_argument("wi and wo must hold as many directions (or wo one)");
             py::array_t<double> out({py::ssize_t(i.size()), py::ssize_t(3)});
             auto a = out.mutable_unchecked<2>();
-            auto unit = [](const Vec3& v, const char* name, std::size_t k) {
-              const Vec3 u = unit_direction(v);
-              if (u == Vec3::Zero())
-                throw std::invalid_argument(std::string(name) + "[" + std::to_string(k) +
-                                            "] must be a finite non-zero vector");
-              return u;
+            auto row = [](const char* name, std::size_t k) {
+              return std::string(name) + "[" + std::to_string(k) + "]";
             };
             for (std::size_t k = 0; k < i.size(); ++k) {
               const std::size_t ko = o.size() == 1 ? 0 : k;
-              const Color f = evaluate(b.spec.brdf, unit(i[k], "wi", k), unit(o[ko], "wo", ko));
+              const Color f = evaluate(b.spec.brdf, to_direction(i[k], row("wi", k)),
+                                       to_direction(o[ko], row("wo", ko)));
               for (int c = 0; c < 3; ++c)
                 a(py::ssize_t(k), c) = f[c];
             }
@@ -478,7 +474,7 @@ PYBIND11_MODULE(basis, m) {
       "reflect",
       [](const Table& table, const Tree& radiance, const std::array<double, 3>& wo, double accuracy,
          const std::string& interpolation) {
-        return result(reflect(table.view, radiance.view, to_direction(wo, "wo"),
+        return result(reflect(table.view, radiance.view, to_direction(to_vec3(wo), "wo"),
                               {{accuracy}, interpolation_of(interpolation)}));
       },
       py::arg("table"), py::arg("radiance"), py::arg("wo") = std::array<double, 3>{0, 0, 1},
@@ -496,7 +492,7 @@ PYBIND11_MODULE(basis, m) {
                                        : throw std::invalid_argument(
                                              "mode must be none, reparametrised or "
                                                 "compensated");
-        return result(reflect_tilted(table.view, radiance.view, to_direction(wo, "wo"),
+        return result(reflect_tilted(table.view, radiance.view, to_direction(to_vec3(wo), "wo"),
                                      {tilt[0], tilt[1]}, compensation));
       },
       py::arg("table"), py::arg("radiance"), py::arg("wo"), py::arg("tilt"),
@@ -511,7 +507,7 @@ PYBIND11_MODULE(basis, m) {
          double accuracy, const std::string& interpolation) {
         const std::optional<Brdf> brdf = table_brdf_of(table);
         ShadingOptions options;
-        options.wo = to_direction(wo, "wo");
+        options.wo = to_direction(to_vec3(wo), "wo");
         options.light_brdf = brdf ? &*brdf : nullptr;
         options.convolution.accuracy = accuracy;
         options.interpolation = interpolation_of(interpolation);
@@ -559,11 +555,7 @@ PYBIND11_MODULE(basis, m) {
           throw std::invalid_argument("res must be a power of two from 2 to 512");
         std::vector<SurfacePoint> surface;
         for (std::size_t k = 0; k < p.size(); ++k) {
-          const Vec3 normal = unit_direction(n[k]);
-          if (normal == Vec3::Zero())
-            throw std::invalid_argument("normals[" + std::to_string(k) +
-                                        "] must be a finite non-zero vector");
-          surface.push_back({p[k], normal});
+          surface.push_back({p[k], to_direction(n[k], "normals[" + std::to_string(k) + "]")});
         }
         py::gil_scoped_release release;
         CaptureRecipe recipe;

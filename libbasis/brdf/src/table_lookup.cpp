@@ -23,8 +23,8 @@ Convolution convolve_tap(const BrdfTableView& table, const TableTap& tap,
   if (!tap.reads_derivatives() && tap.weights[0] == 1) return convolve(entry, radiance, options);
   const std::array<float, 3> weights = {float(tap.weights[0]), float(tap.weights[1]),
                                         float(tap.weights[2])};
-  const std::size_t groups = tap.weights[2] != 0 ? 3 : tap.weights[1] != 0 ? 2 : 1;
-  return convolve_weighted(entry, std::span(weights.data(), groups), radiance, options);
+  return convolve_weighted(entry, std::span(weights.data(), std::size_t(tap.groups_read())),
+                           radiance, options);
 }
 
 // Sums entry(tap) over the taps that read anything, pi included.
@@ -58,10 +58,9 @@ EntriesAtWo entries_at(const BrdfTableView& table, const Vec3& wo, WoInterpolati
   bool derivatives = false;
   for (const TableTap& tap : entries.taps) {
     if (!tap.reads_anything()) continue;
-    const int groups = tap.weights[2] != 0 ? 3 : tap.weights[1] != 0 ? 2 : 1;
     terms.push_back({table.entry(tap.i, tap.j),
                      {float(tap.weights[0]), float(tap.weights[1]), float(tap.weights[2])},
-                     groups});
+                     tap.groups_read()});
     derivatives = derivatives || tap.reads_derivatives();
   }
   const bool foldable = folding_available() && table.trees.shape().bounds == BoundKind::l2;

@@ -503,7 +503,7 @@ struct NarrowPairs {
       else
         magnitude[c] = _mm_mul_ps(a.share, b.share);
       term[c] = _mm_mul_ps(a.bound, b.bound);
-      term_on[c] = _mm_mul_ps(stopping_bound, b.bound);
+      if constexpr (kFolded) term_on[c] = _mm_mul_ps(stopping_bound, b.bound);
       if constexpr (kLinfA || kLinfB)
         term[c] =
             linf_terms<kLinfA, kLinfB>(k, term[c], a.bound, b.bound, a.magnitude, b.magnitude);
@@ -915,16 +915,22 @@ GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, 
   return result;
 }
 
-template <int GA, int GW>
+// kFolded: a is a folded tree (l2 bounds) whose terms' rounding floor_weight covers.
+template <int GA, int GW, bool kFolded = false>
 GroupConvolution dispatch_simd(const PackedTreeView& a, const PackedTreeView& b, double accuracy,
-                               std::span<const float> weights) {
+                               std::span<const float> weights, float floor_weight = 0) {
   const int ca = a.shape().channels, cb = b.shape().channels;
   const bool la = a.shape().bounds == BoundKind::linf, lb = b.shape().bounds == BoundKind::linf;
   auto by_kinds = [&]<int CA, int CB>() {
-    if (la && lb) return descend_simd<CA, CB, GA, GW, true, true>(a, b, accuracy, weights);
-    if (la) return descend_simd<CA, CB, GA, GW, true, false>(a, b, accuracy, weights);
-    if (lb) return descend_simd<CA, CB, GA, GW, false, true>(a, b, accuracy, weights);
-    return descend_simd<CA, CB, GA, GW, false, false>(a, b, accuracy, weights);
+    if constexpr (!kFolded) {
+      if (la && lb) return descend_simd<CA, CB, GA, GW, true, true>(a, b, accuracy, weights);
+      if (la) return descend_simd<CA, CB, GA, GW, true, false>(a, b, accuracy, weights);
+    }
+    if (lb)
+      return descend_simd<CA, CB, GA, GW, false, true, kFolded>(a, b, accuracy, weights,
+                                                                floor_weight);
+    return descend_simd<CA, CB, GA, GW, false, false, kFolded>(a, b, accuracy, weights,
+                                                               floor_weight);
   };
   if (ca == 1 && cb == 1) return by_kinds.template operator()<1, 1>();
   if (ca == 1) return by_kinds.template operator()<1, 3>();
@@ -979,26 +985,10 @@ Convolution convolve(const PackedTreeView& a, const PackedTreeView& b,
 
 Convolution convolve(const FoldedTree& a, const PackedTreeView& b,
                      const ConvolutionOptions& options) {
-  const PackedTreeView folded = a.tree.view();
-  check_compatible(folded.shape(), b.shape());
+  check_compatible(a.tree.shape, b.shape());
 #if defined(__SSE4_1__) && defined(__F16C__)
-  const bool linf = b.shape().bounds == BoundKind::linf;
-  const double accuracy = options.accuracy;
-  auto by_channels = [&]<int CA, int CB>() {
-    if (linf)
-      return descend_simd<CA, CB, 1, 1, false, true, true>(folded, b, accuracy, {}, a.floor_weight);
-    return descend_simd<CA, CB, 1, 1, false, false, true>(folded, b, accuracy, {}, a.floor_weight);
-  };
-  const int ca = folded.shape().channels, cb = b.shape().channels;
-  GroupConvolution g;
-  if (ca == 1 && cb == 1)
-    g = by_channels.template operator()<1, 1>();
-  else if (ca == 1)
-    g = by_channels.template operator()<1, 3>();
-  else if (cb == 1)
-    g = by_channels.template operator()<3, 1>();
-  else
-    g = by_channels.template operator()<3, 3>();
+  const GroupConvolution g =
+      dispatch_simd<1, 1, true>(a.tree.view(), b, options.accuracy, {}, a.floor_weight);
   return {g.value[0], g.bound};
 #else
   (void)options;

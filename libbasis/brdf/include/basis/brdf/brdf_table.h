@@ -158,6 +158,8 @@ struct TableTap {
   std::array<double, 3> weights;
   bool reads_derivatives() const { return weights[1] != 0 || weights[2] != 0; }
   bool reads_anything() const { return weights[0] != 0 || reads_derivatives(); }
+  // The groups a lookup combines: up to the last one with a non-zero weight (1 to 3).
+  int groups_read() const { return weights[2] != 0 ? 3 : weights[1] != 0 ? 2 : 1; }
 };
 // The unit direction of an outgoing wo of any length; std::invalid_argument when wo is below the
 // horizon (z < 0), zero or not finite.
