@@ -1,5 +1,6 @@
 #include "basis/format/qt_file.h"
 #include "basis/core/projection.h"
+#include "basis/core/refined_values.h"
 
 #include <fcntl.h>
 #include <sys/mman.h>
@@ -96,6 +97,39 @@ std::string check_tree(const QuadtreeView& tree, int levels, std::vector<std::ui
         return "tree deeper than its resolution allows (" + std::to_string(levels) + " levels)";
     }
   }
+  return {};
+}
+
+// Links and depths of one packed tree: breadth first, node n's children the next block after
+// those of the nodes before it; with exact texels, exactly the nodes at the texel depth are
+// texel nodes. Returns an empty string or the problem.
+std::string link_problem(const PackedTreeView& tree, std::vector<std::uint8_t>& depth) {
+  const PackedShape& shape = tree.shape();
+  const int levels = std::countr_zero(unsigned(shape.resolution));
+  const int count = tree.node_count();
+  depth.assign(std::size_t(count), 0);
+  std::uint64_t next = 1;
+  for (int n = 0; n < count; ++n) {
+    if (std::uint64_t(n) >= next) return "node " + std::to_string(n) + " is unreachable";
+    if (shape.exact_texels && (depth[n] == shape.texel_depth()) != tree.is_texel_node(n))
+      return "texel nodes start at node " + std::to_string(tree.texel_start()) + ", node " +
+             std::to_string(n) + " lies at depth " + std::to_string(depth[n]);
+    const std::uint32_t link = tree.link(n);
+    if (link == 0) continue;
+    if ((link & 15u) == 0 || link >> 4 != next)
+      return "node " + std::to_string(n) + " links to node " + std::to_string(link >> 4) +
+             " (children follow breadth first, expected " + std::to_string(next) + ")";
+    const int children = std::popcount(link & 15u);
+    if (next + std::uint64_t(children) > std::uint64_t(count))
+      return "node " + std::to_string(n) + " links past the tree's " + std::to_string(count) +
+             " nodes";
+    if (depth[n] + 1 >= levels)
+      return "deeper than its resolution allows (" + std::to_string(levels) + " levels)";
+    for (int k = 0; k < children; ++k)
+      depth[next + k] = std::uint8_t(depth[n] + 1);
+    next += std::uint64_t(children);
+  }
+  if (next != std::uint64_t(count)) return std::to_string(count - next) + " nodes are unreachable";
   return {};
 }
 
@@ -385,8 +419,17 @@ TreeSetView QtFile::verify_packed_trees(const void* set_pointer, const std::stri
   std::span<const std::uint32_t> words;
   if (set->words()) words = {set->words()->data(), set->words()->size()};
   if (extents.empty()) fail(name_, "no " + what);
+  const bool elided = version_ >= 7 && set->refined_values_elided();
+  if (elided && !has_derived_values(shape))
+    fail(name_, what + ": only sets of shared-exponent values leave out refined nodes' values");
+  // Every tree's extent; for the elided layout, its words as read, with the values restored.
+  const int levels = std::countr_zero(unsigned(shape.resolution));
+  const std::uint64_t largest_tree = ((std::uint64_t(1) << (2 * levels)) - 1) / 3;
+  std::vector<std::uint8_t> depth;
+  TreeSet restored(shape);
   std::uint64_t total = 0;
-  for (const TreeExtent& e : extents) {
+  for (std::size_t i = 0; i < extents.size(); ++i) {
+    const TreeExtent& e = extents[i];
     if (e.first_word != total) fail(name_, what + ": tree extents are not contiguous");
     if (e.node_count == 0) fail(name_, what + ": a tree has no nodes");
     if (e.texel_start > e.node_count || (!exact_texels && e.texel_start != e.node_count))
@@ -396,54 +439,48 @@ TreeSetView QtFile::verify_packed_trees(const void* set_pointer, const std::stri
     if (!(e.scales.value_scale > 0 && e.scales.value_scale < INFINITY) ||
         !(e.scales.bound_scale > 0 && e.scales.bound_scale < INFINITY))
       fail(name_, what + ": a tree's scales are not finite positive numbers");
-    total += e.word_count(shape);
-    if (total > words.size()) break;
+    if (!elided) {
+      total += e.word_count(shape);
+      if (total > words.size()) break;
+      continue;
+    }
+    const std::string tree_name = what + ": tree " + std::to_string(i) + ": ";
+    if (e.node_count > largest_tree)
+      fail(name_, tree_name + std::to_string(e.node_count) + " nodes, more than a tree of " +
+                      std::to_string(shape.resolution) + "² holds");
+    ElidedTreeRead read;
+    try {
+      read = read_elided_tree(shape, e.scales, words.subspan(std::size_t(total)), e.node_count,
+                              e.texel_start);
+    } catch (const std::invalid_argument& error) {
+      fail(name_, tree_name + error.what());
+    }
+    total += read.words_read;
+    if (const std::string problem = link_problem(read.tree.view(), depth); !problem.empty())
+      fail(name_, tree_name + problem);
+    try {
+      derive_refined_values(read.tree, DerivedBoundRange::refuse);
+    } catch (const std::invalid_argument& error) {
+      fail(name_, tree_name + error.what());
+    }
+    restored.append(read.tree.view());
   }
   if (words.size() != total)
     fail(name_, what + ": node data hold " + std::to_string(words.size()) + " words, " +
                     (total > words.size() ? "more" : std::to_string(total)) + " expected");
+  if (elided) {
+    converted_.push_back(std::move(restored));
+    return converted_.back().view();
+  }
   const TreeSetView view(shape, extents, words);
-  const int levels = std::countr_zero(unsigned(shape.resolution));
-  std::vector<std::uint8_t> depth;
   for (std::size_t i = 0; i < view.size(); ++i) {
     const PackedTreeView tree = view.tree(i);
-    const int count = tree.node_count();
-    // Breadth first: node n's children are the next block after those of the nodes before it;
-    // with exact texels, exactly the nodes at the texel depth are texel nodes.
-    depth.assign(std::size_t(count), 0);
-    std::uint64_t next = 1;
-    for (int n = 0; n < count; ++n) {
-      if (std::uint64_t(n) >= next)
-        fail(name_, what + ": tree " + std::to_string(i) + ": node " + std::to_string(n) +
-                        " is unreachable");
-      if (exact_texels && (depth[n] == shape.texel_depth()) != tree.is_texel_node(n))
-        fail(name_, what + ": tree " + std::to_string(i) + ": texel nodes start at node " +
-                        std::to_string(tree.texel_start()) + ", node " + std::to_string(n) +
-                        " lies at depth " + std::to_string(depth[n]));
-      const std::uint32_t link = tree.link(n);
-      if (link == 0) continue;
-      if ((link & 15u) == 0 || link >> 4 != next)
-        fail(name_, what + ": tree " + std::to_string(i) + ": node " + std::to_string(n) +
-                        " links to node " + std::to_string(link >> 4) + " (children follow " +
-                        "breadth first, expected " + std::to_string(next) + ")");
-      const int children = std::popcount(link & 15u);
-      if (next + std::uint64_t(children) > std::uint64_t(count))
-        fail(name_, what + ": tree " + std::to_string(i) + ": node " + std::to_string(n) +
-                        " links past the tree's " + std::to_string(count) + " nodes");
-      if (depth[n] + 1 >= levels)
-        fail(name_, what + ": tree " + std::to_string(i) + ": deeper than its resolution allows (" +
-                        std::to_string(levels) + " levels)");
-      for (int k = 0; k < children; ++k)
-        depth[next + k] = std::uint8_t(depth[n] + 1);
-      next += std::uint64_t(children);
-    }
-    if (next != std::uint64_t(count))
-      fail(name_, what + ": tree " + std::to_string(i) + ": " + std::to_string(count - next) +
-                      " nodes are unreachable");
+    if (const std::string problem = link_problem(tree, depth); !problem.empty())
+      fail(name_, what + ": tree " + std::to_string(i) + ": " + problem);
     // Values: halves that are neither infinite nor NaN (exponent bits all ones). Every
     // shared-exponent word is a finite value.
     const int halves = 2 * shape.groups * shape.channels * 2;
-    for (int n = 0; n < (shape.shared_values() ? 0 : count); ++n) {
+    for (int n = 0; n < (shape.shared_values() ? 0 : tree.node_count()); ++n) {
       const std::uint16_t* h = tree.halves(n);
       for (int k = 0; k < halves; ++k)
         if ((h[k] & 0x7c00u) == 0x7c00u)
@@ -501,6 +538,15 @@ TreeSetView QtFile::verify_and_pack_float_trees(const void* set_pointer, const s
   return converted_.back().view();
 }
 
+std::size_t QtFile::stored_tree_bytes() const {
+  const fb::TreeSet* set = fb::GetFile(buffer())->trees();
+  auto bytes = [](const auto* vector) {
+    return vector ? std::size_t(vector->size()) * sizeof(*vector->data()) : 0;
+  };
+  if (version_ < 3) return bytes(set->extents()) + bytes(set->nodes()) + bytes(set->errors());
+  return bytes(set->words()) + bytes(set->node_extents()) + bytes(set->packed_extents());
+}
+
 std::string QtFile::brdf_model() const {
   const auto* table = fb::GetFile(buffer())->brdf_table();
   return table && table->model() ? table->model()->str() : std::string();
@@ -535,10 +581,34 @@ namespace {
 flatbuffers::Offset<fb::TreeSet> build_tree_set(flatbuffers::FlatBufferBuilder& b,
                                                 const TreeSetView& trees,
                                                 const ProjectionOptions& projection) {
-  const auto extents = b.CreateVectorOfStructs(
-      reinterpret_cast<const fb::NodeExtent*>(trees.extents().data()), trees.extents().size());
-  const auto words = b.CreateVector(trees.words().data(), trees.words().size());
   const PackedShape& s = trees.shape();
+  // Sets of shared-exponent values: each tree's derived values made current, so that reading
+  // gives back these trees, and left out.
+  std::span<const TreeExtent> extents_written = trees.extents();
+  std::span<const std::uint32_t> words_written = trees.words();
+  std::vector<TreeExtent> elided_extents;
+  std::vector<std::uint32_t> elided_words;
+  const bool elide = has_derived_values(s);
+  if (elide) {
+    for (std::size_t i = 0; i < trees.size(); ++i) {
+      const PackedTreeView tree = trees.tree(i);
+      PackedTree current{s,
+                         tree.scales(),
+                         {tree.words().begin(), tree.words().end()},
+                         std::size_t(tree.texel_start())};
+      derive_refined_values(current);
+      const std::vector<std::uint32_t> words = elide_refined_values(current.view());
+      elided_extents.push_back({std::uint32_t(elided_words.size()),
+                                std::uint32_t(current.node_count()),
+                                std::uint32_t(current.texel_start), current.scales});
+      elided_words.insert(elided_words.end(), words.begin(), words.end());
+    }
+    extents_written = elided_extents;
+    words_written = elided_words;
+  }
+  const auto extents = b.CreateVectorOfStructs(
+      reinterpret_cast<const fb::NodeExtent*>(extents_written.data()), extents_written.size());
+  const auto words = b.CreateVector(words_written.data(), words_written.size());
   fb::TreeSetBuilder set(b);
   set.add_resolution(s.resolution);
   set.add_channels(s.channels);
@@ -556,6 +626,7 @@ flatbuffers::Offset<fb::TreeSet> build_tree_set(flatbuffers::FlatBufferBuilder& 
   set.add_value_encoding(s.value_encoding == ValueEncoding::shared_exponent
                              ? fb::ValueEncoding::SharedExponent
                              : fb::ValueEncoding::Halves);
+  set.add_refined_values_elided(elide);
   set.add_words(words);
   return set.Finish();
 }

@@ -52,10 +52,12 @@ ordered_json summarise(const QtFile& file) {
                 {"mean", double(total) / double(trees.size())},
                 {"max", largest},
                 {"per_level", histogram}};
-  const double tree_bytes = double(trees.bytes());
+  // As stored in the file; a set restored on loading takes more in memory.
+  const double tree_bytes = double(file.stored_tree_bytes());
   const double dense_bytes =
       double(trees.size()) * s.resolution * s.resolution * s.channels * s.groups * sizeof(float);
   j["storage"] = {{"tree_bytes", tree_bytes},
+                  {"memory_bytes", double(trees.bytes())},
                   {"dense_bytes", dense_bytes},
                   {"compression", dense_bytes / tree_bytes}};
   if (file.kind() == QtKind::brdf_table) {
@@ -148,6 +150,7 @@ ordered_json summarise(const CaptureManifest& manifest, const TaskControl& contr
     }
     ordered_json& storage = total["storage"];
     add(storage["tree_bytes"], j["storage"]["tree_bytes"]);
+    add(storage["memory_bytes"], j["storage"]["memory_bytes"]);
     add(storage["dense_bytes"], j["storage"]["dense_bytes"]);
     storage["compression"] =
         storage["dense_bytes"].get<double>() / storage["tree_bytes"].get<double>();
@@ -228,9 +231,13 @@ std::string render_text(const ordered_json& j) {
     out << (k ? ", " : "") << "L" << k << " " << levels[k].get<long long>();
   out << "\n";
   const auto& storage = j["storage"];
+  std::string in_memory;
+  if (storage["memory_bytes"].get<double>() != storage["tree_bytes"].get<double>())
+    in_memory = " (" + bytes_text(storage["memory_bytes"]) + " in memory)";
   std::snprintf(line, sizeof line,
-                "storage      %s of nodes and bounds; dense grids %s; %.1fx smaller\n",
-                bytes_text(storage["tree_bytes"]).c_str(),
+                "storage      %s of nodes and bounds in the file%s; dense grids %s; %.1fx "
+                "smaller\n",
+                bytes_text(storage["tree_bytes"]).c_str(), in_memory.c_str(),
                 bytes_text(storage["dense_bytes"]).c_str(), storage["compression"].get<double>());
   out << line;
   if (j.contains("captures")) {

@@ -11,6 +11,7 @@
 
 #include "basis/core/convolution.h"
 #include "basis/core/projection.h"
+#include "basis/core/refined_values.h"
 #include "basis/format/qt_file.h"
 #include "basis/format/qt_recipe.h"
 #include "basis_generated.h"
@@ -59,6 +60,19 @@ CaptureSet sample_captures(int count) {
     }
   }
   c.light_offsets.push_back(std::uint32_t(c.lights.size()));
+  return c;
+}
+
+// Captures as capture2qt makes them: exact texels in shared-exponent words, with many nodes
+// refined over all four quadrants (random texels, smooth light).
+CaptureSet exact_captures(int count) {
+  CaptureSet c = sample_captures(count);
+  c.trees = TreeSet();
+  for (int i = 0; i < count; ++i) {
+    const PackedTree tree = pack_exact_texels(sample_float_tree(32, 3, i % 2, 0.01 * i));
+    if (i == 0) c.trees = TreeSet(tree.shape);
+    c.trees.append(tree.view());
+  }
   return c;
 }
 
@@ -119,7 +133,8 @@ TreeExtent whole_tree(const PackedTree& tree) {
 std::vector<std::byte> unchecked_file(const TreeSetView& trees, const CaptureSetView* captures,
                                       std::uint8_t bound_kind = 0,
                                       std::uint32_t version = kQtFormatVersion,
-                                      int bounded_groups = 1, int value_encoding = -1) {
+                                      int bounded_groups = 1, int value_encoding = -1,
+                                      bool refined_values_elided = false) {
   flatbuffers::FlatBufferBuilder b;
   auto structs = [&]<typename F, typename T>(std::span<const T> v) {
     return b.CreateVectorOfStructs(reinterpret_cast<const F*>(v.data()), v.size());
@@ -153,6 +168,7 @@ std::vector<std::byte> unchecked_file(const TreeSetView& trees, const CaptureSet
   if (version >= 6)  // the shape's encoding unless told otherwise
     set.add_value_encoding(
         format::ValueEncoding(value_encoding >= 0 ? value_encoding : int(s.value_encoding)));
+  if (refined_values_elided) set.add_refined_values_elided(true);
   set.add_words(words);
   const auto set_offset = set.Finish();
   flatbuffers::Offset<format::CaptureSet> info = 0;
@@ -358,7 +374,8 @@ TEST(QtFormat, MutatedAndTruncatedFilesLoadValidOrFailCleanly) {
   const std::vector<std::vector<std::byte>> originals = {
       encode_tree(sample_tree(32, 3, 1).view(), {}, test_provenance()),
       encode_brdf_table(sample_table(2).view(), "phong", "{}", {}, test_provenance()),
-      encode_capture_set(sample_captures(3).view(), {}, test_provenance())};
+      encode_capture_set(sample_captures(3).view(), {}, test_provenance()),
+      encode_capture_set(exact_captures(3).view(), {}, test_provenance())};
   const PackedTree probe = sample_tree(8, 1, 0);
   std::mt19937 rng(2024);
   int loaded = 0, rejected = 0;
@@ -601,8 +618,13 @@ TEST(QtFormat, SharedExponentValuesLoadInPlaceAndVersion5TreesStillLoad) {
   // Every node's values in 16 bytes instead of 24.
   EXPECT_EQ(halves.words.size() - shared.words.size(), std::size_t(shared.node_count()) * 2);
   const PackedTree light = sample_tree(32, 3, 4);
-  const QtFile file = QtFile::from_bytes(encode_tree(shared.view(), {}, {}), "shared.qt");
+  // Version 6 (every node's values in place), as earlier builds wrote them.
+  const TreeExtent v6_extent = whole_tree(shared);
+  const QtFile file = QtFile::from_bytes(
+      unchecked_file(TreeSetView(shared.shape, {&v6_extent, 1}, shared.words), nullptr, 0, 6),
+      "shared.qt");
   EXPECT_EQ(file.format_version(), 6u);
+  EXPECT_TRUE(file.zero_copy());
   EXPECT_TRUE(file.tree().shape().shared_values());
   EXPECT_TRUE(same_words(file.tree().words(), shared.words));
   EXPECT_EQ(convolve(light.view(), file.tree()).value, convolve(light.view(), shared.view()).value);
@@ -629,6 +651,73 @@ TEST(QtFormat, SharedExponentValuesLoadInPlaceAndVersion5TreesStillLoad) {
   EXPECT_NE(load_error(unchecked_file(TreeSetView(grey.shape, {&grey_extent, 1}, grey.words),
                                       nullptr, 0, kQtFormatVersion, 1, 1))
                 .find("shared-exponent values need"),
+            std::string::npos);
+}
+
+// Version 7: capture sets leave out the values and bounds of nodes refined over all four
+// quadrants (a link word instead of 8), and loading restores them: the trees come back word for
+// word, and so does re-encoding. Elided words that run out, the layout claimed for a set without
+// derived values, an absurd node count, and a bound scale too small for the restored bounds are
+// refused by name.
+TEST(QtFormat, CaptureSetsLeaveOutRefinedValuesAndGetThemBack) {
+  const CaptureSet captures = exact_captures(4);
+  const CaptureSetView view = captures.view();
+  int derived_nodes = 0;
+  for (std::size_t i = 0; i < view.trees.size(); ++i)
+    for (int n = 0; n < view.trees.tree(i).texel_start(); ++n)
+      derived_nodes += (view.trees.tree(i).link(n) & 15u) == 15u;
+  ASSERT_GT(derived_nodes, 100);
+  const std::vector<std::byte> bytes = encode_capture_set(view, {}, test_provenance());
+  const std::vector<std::byte> v6 = unchecked_file(view.trees, &view, 0, 6);
+  // 7 words fewer per derived node.
+  const auto* written = format::GetFile(bytes.data())->trees()->words();
+  EXPECT_EQ(view.trees.words().size() - written->size(), 7u * std::size_t(derived_nodes));
+  const QtFile file = QtFile::from_bytes(bytes, "captures.qt");
+  EXPECT_EQ(file.format_version(), kQtFormatVersion);
+  EXPECT_FALSE(file.zero_copy());
+  ASSERT_EQ(file.captures().size(), view.size());
+  const PackedTree light = sample_tree(32, 3, 4);
+  for (std::size_t i = 0; i < view.size(); ++i) {
+    EXPECT_EQ(file.captures().trees.tree(i).scales(), view.trees.tree(i).scales());
+    EXPECT_TRUE(same_words(file.captures().trees.tree(i).words(), view.trees.tree(i).words()));
+    EXPECT_EQ(convolve(light.view(), file.captures().trees.tree(i)).value,
+              convolve(light.view(), view.trees.tree(i)).value);
+  }
+  EXPECT_EQ(encode_capture_set(file.captures(), {}, test_provenance()), bytes);
+  // A version 6 set re-written: its refined nodes' values re-derived, within their bounds.
+  const QtFile old = QtFile::from_bytes(v6, "v6.qt");
+  EXPECT_TRUE(old.zero_copy());
+  EXPECT_EQ(encode_capture_set(old.captures(), {}, test_provenance()), bytes);
+
+  // Bad elided layouts, written without the writer's checks.
+  const PackedTree tree = pack_exact_texels(sample_float_tree(32, 3, 0, 0.0));
+  const std::vector<std::uint32_t> elided = elide_refined_values(tree.view());
+  TreeExtent extent = whole_tree(tree);
+  auto elided_file = [&](const PackedTree& t, const TreeExtent& e,
+                         std::span<const std::uint32_t> words) {
+    return unchecked_file(TreeSetView(t.shape, {&e, 1}, words), nullptr, 0, kQtFormatVersion, 1, -1,
+                          true);
+  };
+  EXPECT_EQ(load_error(elided_file(tree, extent, elided)), "");
+  EXPECT_NE(load_error(elided_file(tree, extent, {elided.data(), elided.size() - 1}))
+                .find("need more words than the set holds"),
+            std::string::npos);
+  std::vector<std::uint32_t> longer = elided;
+  longer.push_back(0);
+  EXPECT_NE(load_error(elided_file(tree, extent, longer)).find("node data hold"),
+            std::string::npos);
+  const PackedTree halves =
+      pack_exact_texels(sample_float_tree(32, 3, 0, 0.0), BoundKind::l2, ValueEncoding::halves);
+  EXPECT_NE(load_error(elided_file(halves, whole_tree(halves), halves.words))
+                .find("only sets of shared-exponent values"),
+            std::string::npos);
+  TreeExtent absurd = extent;
+  absurd.node_count = 0x7fffffffu;
+  EXPECT_NE(load_error(elided_file(tree, absurd, elided)).find("more than a tree of 32"),
+            std::string::npos);
+  TreeExtent small = extent;
+  small.scales.bound_scale *= 0x1p-12f;
+  EXPECT_NE(load_error(elided_file(tree, small, elided)).find("a derived bound exceeds"),
             std::string::npos);
 }
 

@@ -7,6 +7,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "basis/core/refined_values.h"
+
 namespace basis {
 
 float PackedTreeView::largest_deviation_bound(int n, int g, int c, int q, int level) const {
@@ -159,6 +161,9 @@ PackedTree pack_tree(const Quadtree& tree, BoundKind bounds, int bounded_groups,
     for (std::size_t k = 0; k < bounds_per_node; ++k)
       codes[k] = code_for(moved_bounds[std::size_t(n) * bounds_per_node + k]);
   }
+  // Nodes refined over all four quadrants: the values and bounds their children determine, so
+  // that files may leave them out (refined_values.h).
+  derive_refined_values(out);
   return out;
 }
 

@@ -22,10 +22,12 @@ namespace basis {
 // than one channel group (the derivatives over the outgoing direction that tables hold),
 // version 5 texel nodes of values alone in trees with exact texels (captures) and extents in
 // words, version 6 the values of RGB trees with exact texels as shared-exponent words (4 bytes
-// a quadrant instead of 6). Versions 3 to 6 load where they lie (the extents of 3 and 4 converted);
-// versions 1 and 2 too, their float trees packed on loading with largest-deviation (linf)
-// bounds.
-inline constexpr std::uint32_t kQtFormatVersion = 6;
+// a quadrant instead of 6), version 7 those sets' nodes refined over all four quadrants as
+// their link alone (refined_values.h). Versions 3 to 6 load where they lie (the extents of 3 and
+// 4 converted), and so do version 7's other sets; version 7's capture sets have their derived
+// values restored on loading; versions 1 and 2 their float trees packed on loading with
+// largest-deviation (linf) bounds.
+inline constexpr std::uint32_t kQtFormatVersion = 7;
 
 // Limits checked before anything is allocated from a file's claims.
 inline constexpr std::uint64_t kQtMaxFileBytes = (std::uint64_t(1) << 31) - 1;  // FlatBuffers
@@ -67,11 +69,15 @@ class QtFile {
   }
 
   TreeSetView trees() const { return trees_; }
+  // Bytes of the trees' nodes and extents as the file stores them: trees().bytes() unless they
+  // were packed or restored on loading (see zero_copy()).
+  std::size_t stored_tree_bytes() const;
   ProjectionOptions projection() const { return projection_; }
   // The single tree of a kind-tree file (the first tree otherwise).
   PackedTreeView tree() const { return trees_.tree(0); }
-  // Whether the trees are used where they lie in the file (version 3) or were packed on loading
-  // (versions 1 and 2).
+  // Whether the trees are used where they lie in the file (versions 3 to 6, and version 7's sets
+  // without derived values) or were packed or restored on loading (versions 1 and 2, and
+  // version 7's sets of shared-exponent values).
   bool zero_copy() const { return converted_.empty(); }
   // The table of a kind-brdf_table file; throws FileError for other kinds.
   BrdfTableView brdf_table() const;
@@ -87,8 +93,8 @@ class QtFile {
   // Checks one tree set of the buffer; `what` names it in errors.
   TreeSetView verify_tree_set(const void* set, const std::string& what,
                               ProjectionOptions* projection);
-  // Versions 3 to 5: packed trees, checked where they lie (the extents of versions 3 and 4
-  // converted).
+  // Versions 3 to 7: packed trees, checked where they lie (the extents of versions 3 and 4
+  // converted), or restored into converted_ when their derived values were left out.
   TreeSetView verify_packed_trees(const void* set, const std::string& what,
                                   const QuadtreeShape& shape);
   // Versions 1 and 2: float trees, checked and packed into converted_.
