@@ -427,6 +427,16 @@ TreeSetView QtFile::verify_packed_trees(const void* set_pointer, const std::stri
   const std::uint64_t largest_tree = ((std::uint64_t(1) << (2 * levels)) - 1) / 3;
   std::vector<std::uint8_t> depth;
   TreeSet restored(shape);
+  PackedTree read;
+  std::vector<double> scratch;
+  if (elided) {  // the restored set's size, once: at most 8 words in memory per word stored
+    std::uint64_t restored_words = 0;
+    for (const TreeExtent& e : extents)
+      if (e.texel_start <= e.node_count && e.node_count <= largest_tree)
+        restored_words += packed_node_offset(shape, e.texel_start, e.node_count);
+    restored.reserve(extents.size(),
+                     std::size_t(std::min(restored_words, 8 * std::uint64_t(words.size()))));
+  }
   std::uint64_t total = 0;
   for (std::size_t i = 0; i < extents.size(); ++i) {
     const TreeExtent& e = extents[i];
@@ -444,26 +454,26 @@ TreeSetView QtFile::verify_packed_trees(const void* set_pointer, const std::stri
       if (total > words.size()) break;
       continue;
     }
-    const std::string tree_name = what + ": tree " + std::to_string(i) + ": ";
+    auto tree_problem = [&](const std::string& problem) {
+      fail(name_, what + ": tree " + std::to_string(i) + ": " + problem);
+    };
     if (e.node_count > largest_tree)
-      fail(name_, tree_name + std::to_string(e.node_count) + " nodes, more than a tree of " +
-                      std::to_string(shape.resolution) + "² holds");
-    ElidedTreeRead read;
+      tree_problem(std::to_string(e.node_count) + " nodes, more than a tree of " +
+                   std::to_string(shape.resolution) + "² holds");
     try {
-      read = read_elided_tree(shape, e.scales, words.subspan(std::size_t(total)), e.node_count,
-                              e.texel_start);
+      total += read_elided_tree(shape, e.scales, words.subspan(std::size_t(total)), e.node_count,
+                                e.texel_start, read);
     } catch (const std::invalid_argument& error) {
-      fail(name_, tree_name + error.what());
+      tree_problem(error.what());
     }
-    total += read.words_read;
-    if (const std::string problem = link_problem(read.tree.view(), depth); !problem.empty())
-      fail(name_, tree_name + problem);
+    if (const std::string problem = link_problem(read.view(), depth); !problem.empty())
+      tree_problem(problem);
     try {
-      derive_refined_values(read.tree, DerivedBoundRange::refuse);
+      derive_refined_values(read, DerivedBoundRange::refuse, scratch);
     } catch (const std::invalid_argument& error) {
-      fail(name_, tree_name + error.what());
+      tree_problem(error.what());
     }
-    restored.append(read.tree.view());
+    restored.append(read.view());
   }
   if (words.size() != total)
     fail(name_, what + ": node data hold " + std::to_string(words.size()) + " words, " +

@@ -16,7 +16,7 @@ constexpr std::size_t kBoundsPerNode = 3 * 4;  // channels x quadrants of a shar
 
 // One pass over the tree, children before parents. Returns whether every derived bound fits the
 // tree's bound scale (a bound that does not gets code 255, which does not hold).
-bool derive_pass(PackedTree& tree) {
+bool derive_pass(PackedTree& tree, std::vector<double>& offsets) {
   const PackedShape& shape = tree.shape;
   const std::size_t texel_start = tree.texel_start;
   const std::size_t count = std::size_t(tree.node_count());
@@ -25,7 +25,7 @@ bool derive_pass(PackedTree& tree) {
   const double largest_codable = double(bound_code_value(255)) * bound_scale;
   // Bounds on |mean of a quadrant's texels - its value|, per channel and quadrant of the
   // derived nodes (negative for the others).
-  std::vector<double> offsets(texel_start * kBoundsPerNode, -1);
+  offsets.assign(texel_start * kBoundsPerNode, -1);
   bool fits = true;
   for (std::size_t n = texel_start; n-- > 0;) {
     std::uint32_t* node = tree.words.data() + n * full_words;
@@ -92,9 +92,15 @@ bool derive_pass(PackedTree& tree) {
 }  // namespace
 
 void derive_refined_values(PackedTree& tree, DerivedBoundRange range) {
+  std::vector<double> scratch;
+  derive_refined_values(tree, range, scratch);
+}
+
+void derive_refined_values(PackedTree& tree, DerivedBoundRange range,
+                           std::vector<double>& scratch) {
   if (!has_derived_values(tree.shape)) return;
   const std::size_t full_words = std::size_t(tree.shape.words_per_node());
-  for (int doublings = 0; !derive_pass(tree); ++doublings) {
+  for (int doublings = 0; !derive_pass(tree, scratch); ++doublings) {
     if (range == DerivedBoundRange::refuse || doublings == 64)
       throw std::invalid_argument("a derived bound exceeds what the tree's bound scale codes");
     // Twice the scale: the other nodes' codes recoded, rounded up, and the derived ones again.
@@ -127,16 +133,15 @@ std::vector<std::uint32_t> elide_refined_values(const PackedTreeView& tree) {
   return out;
 }
 
-ElidedTreeRead read_elided_tree(const PackedShape& shape, const TreeScales& scales,
-                                std::span<const std::uint32_t> words, std::size_t node_count,
-                                std::size_t texel_start) {
+std::size_t read_elided_tree(const PackedShape& shape, const TreeScales& scales,
+                             std::span<const std::uint32_t> words, std::size_t node_count,
+                             std::size_t texel_start, PackedTree& tree) {
   if (texel_start > node_count)
     throw std::invalid_argument("first texel node " + std::to_string(texel_start) +
                                 " past the tree's " + std::to_string(node_count) + " nodes");
-  ElidedTreeRead read;
-  read.tree.shape = shape;
-  read.tree.scales = scales;
-  read.tree.texel_start = texel_start;
+  tree.shape = shape;
+  tree.scales = scales;
+  tree.texel_start = texel_start;
   const std::size_t full_words = std::size_t(shape.words_per_node());
   const std::size_t texel_words = (node_count - texel_start) * std::size_t(shape.value_words());
   auto run_out = [&] {
@@ -146,26 +151,24 @@ ElidedTreeRead read_elided_tree(const PackedShape& shape, const TreeScales& scal
   if (!has_derived_values(shape)) {
     const std::size_t size = packed_node_offset(shape, texel_start, node_count);
     if (size > words.size()) throw run_out();
-    read.tree.words.assign(words.begin(), words.begin() + std::ptrdiff_t(size));
-    read.words_read = size;
-    return read;
+    tree.words.assign(words.begin(), words.begin() + std::ptrdiff_t(size));
+    return size;
   }
   // At least a link word per full node: checked before anything is allocated.
   if (texel_start > words.size() || texel_words > words.size() - texel_start) throw run_out();
-  read.tree.words.assign(packed_node_offset(shape, texel_start, node_count), 0);
+  tree.words.assign(packed_node_offset(shape, texel_start, node_count), 0);
   std::size_t at = 0;
   for (std::size_t n = 0; n < texel_start; ++n) {
     if (at >= words.size()) throw run_out();
     const bool derived = (words[at] & kAllQuadrants) == kAllQuadrants;
     const std::size_t size = derived ? 1 : full_words;
     if (size > words.size() - at) throw run_out();
-    std::copy_n(words.data() + at, size, read.tree.words.data() + n * full_words);
+    std::copy_n(words.data() + at, size, tree.words.data() + n * full_words);
     at += size;
   }
   if (texel_words > words.size() - at) throw run_out();
-  std::copy_n(words.data() + at, texel_words, read.tree.words.data() + texel_start * full_words);
-  read.words_read = at + texel_words;
-  return read;
+  std::copy_n(words.data() + at, texel_words, tree.words.data() + texel_start * full_words);
+  return at + texel_words;
 }
 
 }  // namespace basis

@@ -122,16 +122,17 @@ TEST(RefinedValues, ElidedWordsReadBackToTheSameTree) {
     // With a word past it, as in a set: only the tree's own are read.
     std::vector<std::uint32_t> in_set = elided;
     in_set.push_back(0xdeadbeef);
-    ElidedTreeRead read = read_elided_tree(tree.shape, tree.scales, in_set,
-                                           std::size_t(tree.node_count()), tree.texel_start);
-    EXPECT_EQ(read.words_read, elided.size());
-    derive_refined_values(read.tree, DerivedBoundRange::refuse);
-    EXPECT_EQ(read.tree.scales, tree.scales);
-    EXPECT_EQ(read.tree.words, tree.words);
+    PackedTree read;
+    EXPECT_EQ(read_elided_tree(tree.shape, tree.scales, in_set, std::size_t(tree.node_count()),
+                               tree.texel_start, read),
+              elided.size());
+    derive_refined_values(read, DerivedBoundRange::refuse);
+    EXPECT_EQ(read.scales, tree.scales);
+    EXPECT_EQ(read.words, tree.words);
     // Every shorter run of words is refused by name, none read past.
     for (std::size_t size = 0; size < elided.size(); size += 1 + size / 7)
       EXPECT_THROW(read_elided_tree(tree.shape, tree.scales, {elided.data(), size},
-                                    std::size_t(tree.node_count()), tree.texel_start),
+                                    std::size_t(tree.node_count()), tree.texel_start, read),
                    std::invalid_argument);
   }
 }

@@ -37,21 +37,19 @@ enum class DerivedBoundRange { rescale, refuse };
 // tree whose links do not lead to later nodes, whose values cannot be rounded to words, or, with
 // `refuse`, whose derived bounds its scale cannot code.
 void derive_refined_values(PackedTree& tree, DerivedBoundRange range = DerivedBoundRange::rescale);
+// The same, with working memory reused from call to call (for sets of many trees).
+void derive_refined_values(PackedTree& tree, DerivedBoundRange range, std::vector<double>& scratch);
 
 // The words of a tree with derived values, those values left out: a node whose four quadrants
 // are refined holds its link alone. The tree's derived values must be current (as
 // derive_refined_values leaves them). Trees without derived values: their words.
 std::vector<std::uint32_t> elide_refined_values(const PackedTreeView& tree);
 
-// A tree read back from the start of `words` in that layout, the derived values zero (to be
-// restored by derive_refined_values once its links are checked), and how many words it took.
-// Throws std::invalid_argument when the words run out first.
-struct ElidedTreeRead {
-  PackedTree tree;
-  std::size_t words_read = 0;
-};
-ElidedTreeRead read_elided_tree(const PackedShape& shape, const TreeScales& scales,
-                                std::span<const std::uint32_t> words, std::size_t node_count,
-                                std::size_t texel_start);
+// Reads a tree back from the start of `words` in that layout into `tree` (its storage reused),
+// the derived values zero (to be restored by derive_refined_values once its links are checked);
+// returns how many words it took. Throws std::invalid_argument when the words run out first.
+std::size_t read_elided_tree(const PackedShape& shape, const TreeScales& scales,
+                             std::span<const std::uint32_t> words, std::size_t node_count,
+                             std::size_t texel_start, PackedTree& tree);
 
 }  // namespace basis

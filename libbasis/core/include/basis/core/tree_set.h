@@ -72,6 +72,11 @@ class TreeSet {
 
   // Appends a packed tree of the set's shape (throws std::invalid_argument otherwise).
   void append(const PackedTreeView& tree);
+  // Room for that many more trees and words, so that appending them allocates once.
+  void reserve(std::size_t trees, std::size_t words) {
+    extents_.reserve(extents_.size() + trees);
+    words_.reserve(words_.size() + words);
+  }
   std::size_t size() const { return extents_.size(); }
   const PackedShape& shape() const { return shape_; }
   TreeSetView view() const { return {shape_, extents_, words_, total_nodes_}; }
