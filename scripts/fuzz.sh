@@ -24,6 +24,11 @@ if [ -x build/bin/brdf2qt ] && [ -x build/bin/capture2qt ]; then
   build/bin/brdf2qt "$scratch/tiny.json" -o "$scratch/fuzz_qt_file/table.qt" >/dev/null
   build/bin/capture2qt --env-constant 1,0.8,0.6 --scene data/scene.obj --sample 3 --res 8 -q \
     -o "$scratch/fuzz_qt_file/captures.qt"
+  # Under a sky at 16², nodes refined over all four quadrants, which files hold as links alone.
+  if [ -f /usr/share/blender/datafiles/studiolights/world/sunrise.exr ]; then
+    build/bin/capture2qt --env /usr/share/blender/datafiles/studiolights/world/sunrise.exr \
+      --scene data/scene.obj --sample 3 --res 16 -q -o "$scratch/fuzz_qt_file/detail.qt"
+  fi
   sunrise=/usr/share/blender/datafiles/studiolights/world/sunrise.exr
   if [ -f "$sunrise" ]; then  # a capture set that keeps a sun apart (format version 2)
     build/bin/capture2qt --env "$sunrise" --points <(printf '0,0,0,0.3,-0.6,0.74\n0,0,0,0,0,1\n') \
