@@ -11,6 +11,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <new>
 #include <string>
 #include <utility>
 
@@ -429,13 +430,21 @@ TreeSetView QtFile::verify_packed_trees(const void* set_pointer, const std::stri
   TreeSet restored(shape);
   PackedTree read;
   std::vector<double> scratch;
-  if (elided) {  // the restored set's size, once: at most 8 words in memory per word stored
+  // The restored set's size, reserved once: at most 8 words in memory per word stored.
+  auto out_of_memory = [&] {
+    fail(name_, what + ": not enough memory to restore the trees' refined values");
+  };
+  if (elided) {
     std::uint64_t restored_words = 0;
     for (const TreeExtent& e : extents)
       if (e.texel_start <= e.node_count && e.node_count <= largest_tree)
         restored_words += packed_node_offset(shape, e.texel_start, e.node_count);
-    restored.reserve(extents.size(),
-                     std::size_t(std::min(restored_words, 8 * std::uint64_t(words.size()))));
+    try {
+      restored.reserve(extents.size(),
+                       std::size_t(std::min(restored_words, 8 * std::uint64_t(words.size()))));
+    } catch (const std::bad_alloc&) {
+      out_of_memory();
+    }
   }
   std::uint64_t total = 0;
   for (std::size_t i = 0; i < extents.size(); ++i) {
@@ -465,6 +474,8 @@ TreeSetView QtFile::verify_packed_trees(const void* set_pointer, const std::stri
                                 e.texel_start, read);
     } catch (const std::invalid_argument& error) {
       tree_problem(error.what());
+    } catch (const std::bad_alloc&) {
+      out_of_memory();
     }
     if (const std::string problem = link_problem(read.view(), depth); !problem.empty())
       tree_problem(problem);
@@ -473,7 +484,11 @@ TreeSetView QtFile::verify_packed_trees(const void* set_pointer, const std::stri
     } catch (const std::invalid_argument& error) {
       tree_problem(error.what());
     }
-    restored.append(read.view());
+    try {
+      restored.append(read.view());
+    } catch (const std::bad_alloc&) {
+      out_of_memory();
+    }
   }
   if (words.size() != total)
     fail(name_, what + ": node data hold " + std::to_string(words.size()) + " words, " +

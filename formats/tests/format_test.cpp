@@ -382,8 +382,8 @@ TEST(QtFormat, MutatedAndTruncatedFilesLoadValidOrFailCleanly) {
   for (int trial = 0; trial < 6000; ++trial) {
     std::vector<std::byte> bytes = originals[trial % originals.size()];
     std::uniform_int_distribution<std::size_t> position(0, bytes.size() - 1);
-    switch (trial % 4) {
-      case 0:  // truncate
+    switch (trial / originals.size() % 4) {  // every kind of mutation for every original
+      case 0:                                // truncate
         bytes.resize(position(rng));
         break;
       case 1:  // flip a few bits

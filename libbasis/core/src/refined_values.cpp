@@ -21,8 +21,12 @@ bool derive_pass(PackedTree& tree, std::vector<double>& offsets) {
   const std::size_t texel_start = tree.texel_start;
   const std::size_t count = std::size_t(tree.node_count());
   const std::size_t full_words = std::size_t(shape.words_per_node());
-  const double value_scale = tree.scales.value_scale, bound_scale = tree.scales.bound_scale;
-  const double largest_codable = double(bound_code_value(255)) * bound_scale;
+  const double value_scale = tree.scales.value_scale;
+  // Codes' values as PackedTreeView::bound computes them: the float product.
+  auto code_value = [&](std::uint8_t code) {
+    return double(bound_code_value(code) * tree.scales.bound_scale);
+  };
+  const double largest_codable = code_value(255);
   // Bounds on |mean of a quadrant's texels - its value|, per channel and quadrant of the
   // derived nodes (negative for the others).
   offsets.assign(texel_start * kBoundsPerNode, -1);
@@ -53,7 +57,9 @@ bool derive_pass(PackedTree& tree, std::vector<double>& offsets) {
           mean[c] += v[c][i];
         }
         mean[c] /= 4;
-        scaled_mean[c] = float(mean[c] / value_scale);
+        // Below 2^15, which words cannot hold: texels just under it may round up to it (the
+        // bound is taken from the word's value, so it still holds).
+        scaled_mean[c] = std::min(float(mean[c] / value_scale), std::nextafter(0x1p15f, 0.0f));
       }
       const std::uint32_t word = encode_shared_exponent(scaled_mean);
       node[1 + q] = word;
@@ -67,8 +73,8 @@ bool derive_pass(PackedTree& tree, std::vector<double>& offsets) {
             s = e * (1 + 0x1p-20);
           } else {
             const std::size_t at = std::size_t(c) * 4 + i;
-            s = double(bound_code_value(child_codes[at])) * bound_scale;
-            const double derived = k < texel_start ? offsets[k * kBoundsPerNode + at] : -1;
+            s = code_value(child_codes[at]);
+            const double derived = offsets[k * kBoundsPerNode + at];
             e = derived >= 0 ? std::min(s, derived) : s;
           }
           const double d = std::abs(v[c][i] - value);
@@ -82,7 +88,7 @@ bool derive_pass(PackedTree& tree, std::vector<double>& offsets) {
         const double bound =
             (shape.bounds == BoundKind::l2 ? std::sqrt(squares / 4) : largest) * (1 + 0x1p-40);
         if (bound > largest_codable) fits = false;
-        codes[std::size_t(c) * 4 + q] = bound_code_at_least(bound, float(bound_scale));
+        codes[std::size_t(c) * 4 + q] = bound_code_at_least(bound, tree.scales.bound_scale);
       }
     }
   }

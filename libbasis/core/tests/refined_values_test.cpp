@@ -129,12 +129,33 @@ TEST(RefinedValues, ElidedWordsReadBackToTheSameTree) {
     derive_refined_values(read, DerivedBoundRange::refuse);
     EXPECT_EQ(read.scales, tree.scales);
     EXPECT_EQ(read.words, tree.words);
+    // Whatever a fully refined node held before (values of a tree packed otherwise, or noise),
+    // deriving gives the same tree.
+    PackedTree scrambled = tree;
+    for (int n = 0; n < int(tree.texel_start); ++n)
+      if ((tree.view().link(n) & 15u) == 15u)
+        for (int w = 1; w < tree.shape.words_per_node(); ++w)
+          scrambled.words[std::size_t(n * tree.shape.words_per_node() + w)] ^= 0x5a5a5a5au;
+    derive_refined_values(scrambled, DerivedBoundRange::refuse);
+    EXPECT_EQ(scrambled.words, tree.words);
     // Every shorter run of words is refused by name, none read past.
     for (std::size_t size = 0; size < elided.size(); size += 1 + size / 7)
       EXPECT_THROW(read_elided_tree(tree.shape, tree.scales, {elided.data(), size},
                                     std::size_t(tree.node_count()), tree.texel_start, read),
                    std::invalid_argument);
   }
+}
+
+// Texels that round up to the top of the words' range (2^15 times the value scale): their mean
+// cannot be a word, so it is rounded down to one, and the bound still holds.
+TEST(RefinedValues, MeansAtTheTopOfTheRangeStayWords) {
+  Grid grid = testing::random_grid(16, 3, 4);
+  for (int y = 0; y < 16; ++y)
+    for (int x = 0; x < 16; ++x)
+      grid.at(0, 0, x, y) = 65504 - float((x + y) % 3);  // red near the largest value
+  const PackedTree tree = pack_exact_texels(project(grid, {.tolerance = 0.0}));
+  ASSERT_EQ(tree.view().link(0) & 15u, 15u);
+  EXPECT_LE(check_derived(tree.view(), grid).worst_excess, 0);
 }
 
 TEST(RefinedValues, LinksBackwardsAndUncodableBoundsAreRefused) {

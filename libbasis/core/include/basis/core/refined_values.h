@@ -25,14 +25,14 @@ inline bool has_derived_values(const PackedShape& shape) {
 enum class DerivedBoundRange { rescale, refuse };
 
 // Sets the values and bound codes of every node whose four quadrants are refined, children
-// before parents, to what its child over each quadrant determines (per channel, v_c the child's
-// four values, s_c their bounds, e_c a bound on |mean of c's texels - v_c|):
-//   value: mean of v_c, rounded to the nearest shared-exponent word (v);
-//   l2 bound: sqrt(mean of s_c^2 + d_c^2 + 2 |d_c| e_c), d_c = v_c - v, the RMS deviation of the
+// before parents, to what its child over each quadrant determines (per channel, v_i the child's
+// four values, s_i their bounds, e_i a bound on |mean of quadrant i's texels - v_i|):
+//   value: mean of v_i, rounded to the nearest shared-exponent word (v);
+//   l2 bound: sqrt(mean of s_i^2 + d_i^2 + 2 |d_i| e_i), d_i = v_i - v, the RMS deviation of the
 //     texels from v (the mean square splits over the children into their variances and the
 //     squares of their means' offsets);
-//   linf bound: largest s_c + |d_c|.
-// e_c is half a texel's step for texels, min(s_c, the derived e) for derived nodes, s_c for
+//   linf bound: largest s_i + |d_i|.
+// e_i is half a texel's step for texels, min(s_i, the derived e) for derived nodes, s_i for
 // other nodes. Does nothing to trees without derived values. Throws std::invalid_argument for a
 // tree whose links do not lead to later nodes, whose values cannot be rounded to words, or, with
 // `refuse`, whose derived bounds its scale cannot code.
