@@ -565,11 +565,16 @@ TreeSetView QtFile::verify_and_pack_float_trees(const void* set_pointer, const s
 
 std::size_t QtFile::stored_tree_bytes() const {
   const fb::TreeSet* set = fb::GetFile(buffer())->trees();
-  auto bytes = [](const auto* vector) {
-    return vector ? std::size_t(vector->size()) * sizeof(*vector->data()) : 0;
+  // Elements of `size` bytes (vectors of structs hand out pointers, not the structs' size).
+  auto bytes = [](const auto* vector, std::size_t size) {
+    return vector ? std::size_t(vector->size()) * size : 0;
   };
-  if (version_ < 3) return bytes(set->extents()) + bytes(set->nodes()) + bytes(set->errors());
-  return bytes(set->words()) + bytes(set->node_extents()) + bytes(set->packed_extents());
+  if (version_ < 3)
+    return bytes(set->extents(), sizeof(fb::TreeExtent)) + bytes(set->nodes(), sizeof(fb::Quad)) +
+           bytes(set->errors(), sizeof(fb::Quad));
+  return bytes(set->words(), sizeof(std::uint32_t)) +
+         bytes(set->node_extents(), sizeof(fb::NodeExtent)) +
+         bytes(set->packed_extents(), sizeof(fb::PackedExtent));
 }
 
 std::string QtFile::brdf_model() const {

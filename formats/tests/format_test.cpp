@@ -675,6 +675,10 @@ TEST(QtFormat, CaptureSetsLeaveOutRefinedValuesAndGetThemBack) {
   const QtFile file = QtFile::from_bytes(bytes, "captures.qt");
   EXPECT_EQ(file.format_version(), kQtFormatVersion);
   EXPECT_FALSE(file.zero_copy());
+  // What the file stores, against what the trees take in memory once restored.
+  EXPECT_EQ(file.stored_tree_bytes(),
+            written->size() * sizeof(std::uint32_t) + view.size() * sizeof(TreeExtent));
+  EXPECT_EQ(file.trees().bytes(), view.trees.bytes());
   ASSERT_EQ(file.captures().size(), view.size());
   const PackedTree light = sample_tree(32, 3, 4);
   for (std::size_t i = 0; i < view.size(); ++i) {
@@ -687,6 +691,7 @@ TEST(QtFormat, CaptureSetsLeaveOutRefinedValuesAndGetThemBack) {
   // A version 6 set re-written: its refined nodes' values re-derived, within their bounds.
   const QtFile old = QtFile::from_bytes(v6, "v6.qt");
   EXPECT_TRUE(old.zero_copy());
+  EXPECT_EQ(old.stored_tree_bytes(), old.trees().bytes());
   EXPECT_EQ(encode_capture_set(old.captures(), {}, test_provenance()), bytes);
 
   // Bad elided layouts, written without the writer's checks.
