@@ -512,7 +512,9 @@ PYBIND11_MODULE(basis, m) {
         options.convolution.accuracy = accuracy;
         options.interpolation = interpolation_of(interpolation);
         // One wo for every capture: the entries around it are found and folded once.
-        const EntriesAtWo entries = entries_at(table.view, options.wo, options.interpolation);
+        const EntriesAtWo entries =
+            entries_at(table.view, options.wo, options.interpolation,
+                       /*with_texels=*/!brdf && !captures.view.lights.empty());
         const std::size_t n = captures.view.size();
         py::array_t<double> values({py::ssize_t(n), py::ssize_t(3)}),
             bounds({py::ssize_t(n), py::ssize_t(3)});

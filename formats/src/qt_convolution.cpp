@@ -79,7 +79,9 @@ FileConvolution::FileConvolution(const QtFile& a, const QtFile& b, const Shading
   const Vec3 wo = unit_direction(shading_.wo);
   if (table_ && !shading_.normal && wo != Vec3::Zero() && wo.z() >= 0 &&
       evaluation != Evaluation::dense)
-    entries_ = entries_at(table_->brdf_table(), wo, shading_.interpolation);
+    entries_ = entries_at(table_->brdf_table(), wo, shading_.interpolation,
+                          /*with_texels=*/other_->kind() == QtKind::capture_set &&
+                              !shading_.light_brdf && !shaded_captures().lights.empty());
   if (evaluation == Evaluation::dense) {
     if (shading_.normal)
       throw std::invalid_argument("dense evaluation takes untilted lookups only (no --normal)");

@@ -22,17 +22,22 @@ Lookup main_job_lookup(int which) {
                     : Lookup{"ggx", Vec3(0.5, 0, 0.866).normalized()};
 }
 
-// Arguments: table (0 Phong, 1 GGX), accuracy in thousandths, hot (1: capture 0 repeated).
+// Arguments: table (0 Phong, 1 GGX), accuracy in thousandths, hot (1: capture 0 repeated), and
+// where the captures' sun takes f from: 0 the table's BRDF evaluated (what qtconvolve does by
+// default), 1 the table's texels (qtconvolve --lights table).
 void BM_TreeLookups(benchmark::State& state) {
   const Lookup lookup = main_job_lookup(int(state.range(0)));
   const BrdfTableView table = main_job_file(lookup.table).brdf_table();
   const CaptureSetView captures = main_job_file("captures").captures();
+  const BrdfSpec spec = table_brdf(main_job_file(lookup.table));
   ShadingOptions options;
   options.wo = lookup.wo;
   options.convolution.accuracy = double(state.range(1)) / 1000;
+  options.light_brdf = state.range(3) == 0 ? &spec.brdf : nullptr;
   const bool hot = state.range(2) != 0;
   // The entries around wo, found and folded once as the dense lookup builds its grid once.
-  const EntriesAtWo entries = entries_at(table, options.wo, options.interpolation);
+  const EntriesAtWo entries =
+      entries_at(table, options.wo, options.interpolation, options.light_brdf == nullptr);
   for (auto _ : state)
     for (std::size_t k = 0; k < captures.size(); ++k)
       benchmark::DoNotOptimize(shade(table, entries, captures, hot ? 0 : k, options));
@@ -40,13 +45,18 @@ void BM_TreeLookups(benchmark::State& state) {
 }
 BENCHMARK(BM_TreeLookups)
     ->Name("lookup/trees")
-    ->ArgNames({"ggx", "accuracy_permille", "hot"})
-    ->ArgsProduct({{0, 1}, {0, 10, 50, 100}, {0, 1}})
+    ->ArgNames({"ggx", "accuracy_permille", "hot", "table_lights"})
+    ->ArgsProduct({{0, 1}, {0, 10, 50, 100}, {0, 1}, {0}})
+    ->Args({0, 0, 0, 1})
+    ->Args({1, 0, 0, 1})
+    ->Args({1, 100, 0, 1})
     ->Unit(benchmark::kMillisecond);
 
+// The captures' sun takes f from the table's BRDF, as qtconvolve --dense does by default.
 void BM_DenseLookups(benchmark::State& state) {
   const Lookup lookup = main_job_lookup(int(state.range(0)));
   const DenseLookup table = dense_lookup(main_job_file(lookup.table).brdf_table(), lookup.wo);
+  const BrdfSpec spec = table_brdf(main_job_file(lookup.table));
   const CaptureSetView captures = main_job_file("captures").captures();
   static std::vector<Grid> grids;
   if (grids.empty())
@@ -56,7 +66,7 @@ void BM_DenseLookups(benchmark::State& state) {
   for (auto _ : state)
     for (std::size_t k = 0; k < captures.size(); ++k) {
       const std::size_t i = hot ? 0 : k;
-      benchmark::DoNotOptimize(shade_dense(table, grids[i], captures.lights_of(i), nullptr));
+      benchmark::DoNotOptimize(shade_dense(table, grids[i], captures.lights_of(i), &spec.brdf));
     }
   state.SetItemsProcessed(std::int64_t(state.iterations() * captures.size()));
 }
@@ -75,8 +85,10 @@ void BM_BetweenEntries(benchmark::State& state) {
   const std::string name = std::string(ggx ? "ggx" : "phong") + (method == 0 ? "_first" : "");
   const BrdfTableView table = main_job_file(name).brdf_table();
   const CaptureSetView captures = main_job_file("captures").captures();
+  const BrdfSpec spec = table_brdf(main_job_file(name));
   ShadingOptions options;
   options.wo = Vec3(0.3, 0.2, 0.93).normalized();
+  options.light_brdf = &spec.brdf;
   options.interpolation = method == 2 ? WoInterpolation::hermite : WoInterpolation::bilinear;
   for (auto _ : state)
     for (std::size_t k = 0; k < captures.size(); ++k)

@@ -1,6 +1,7 @@
 #include "basis/brdf/table_lookup.h"
 
 #include <algorithm>
+#include <cmath>
 #include <numbers>
 #include <stdexcept>
 #include <vector>
@@ -52,8 +53,55 @@ Convolution reflect(const BrdfTableView& table, const PackedTreeView& radiance, 
   });
 }
 
-EntriesAtWo entries_at(const BrdfTableView& table, const Vec3& wo, WoInterpolation interpolation) {
-  EntriesAtWo entries{lookup_taps(table, wo, interpolation), std::nullopt};
+namespace {
+
+// Adds to every texel of the square (x0, y0) .. + size the terms of the leaves of node n's
+// quadrants below it (quadrants of level `level`), group by group, as a light's walk adds them.
+void add_leaf_terms(const PackedTreeView& entry, const TableTap& tap, int n, int x0, int y0,
+                    int size, int level, TexelsAtWo& out) {
+  const int half = size / 2;
+  const int groups = tap.reads_derivatives() ? 3 : 1;
+  const int channels = entry.shape().channels;
+  for (int q = 0; q < 4; ++q) {
+    const int x = x0 + (q & 1) * half, y = y0 + (q >> 1) * half;
+    if (const int child = entry.child(n, q)) {
+      add_leaf_terms(entry, tap, child, x, y, half, level + 1, out);
+      continue;
+    }
+    std::array<std::array<double, 6>, 3> terms;
+    for (int g = 0; g < groups; ++g)
+      for (int c = 0; c < 3; ++c) {
+        const int channel = std::min(c, channels - 1);
+        terms[g][c] = tap.weights[g] * entry.value(n, g, channel, q);
+        terms[g][3 + c] =
+            std::abs(tap.weights[g]) * entry.largest_deviation_bound(n, g, channel, q, level);
+      }
+    for (int ty = y; ty < y + half; ++ty)
+      for (int tx = x; tx < x + half; ++tx) {
+        std::array<double, 6>& texel =
+            out.texels[std::size_t(ty) * std::size_t(out.resolution) + std::size_t(tx)];
+        for (int g = 0; g < groups; ++g)
+          for (int i = 0; i < 6; ++i)
+            texel[i] += terms[g][i];
+      }
+  }
+}
+
+}  // namespace
+
+TexelsAtWo texels_at(const BrdfTableView& table, const std::array<TableTap, 4>& taps) {
+  TexelsAtWo out;
+  out.resolution = table.trees.shape().resolution;
+  out.texels.assign(std::size_t(out.resolution) * std::size_t(out.resolution), {});
+  for (const TableTap& tap : taps)
+    if (tap.reads_anything())
+      add_leaf_terms(table.entry(tap.i, tap.j), tap, 0, 0, 0, out.resolution, 1, out);
+  return out;
+}
+
+EntriesAtWo entries_at(const BrdfTableView& table, const Vec3& wo, WoInterpolation interpolation,
+                       bool with_texels) {
+  EntriesAtWo entries{lookup_taps(table, wo, interpolation), std::nullopt, std::nullopt};
   std::vector<WeightedTerm> terms;
   bool derivatives = false;
   for (const TableTap& tap : entries.taps) {
@@ -65,6 +113,7 @@ EntriesAtWo entries_at(const BrdfTableView& table, const Vec3& wo, WoInterpolati
   }
   const bool foldable = folding_available() && table.trees.shape().bounds == BoundKind::l2;
   if (foldable && (terms.size() > 1 || derivatives)) entries.folded = fold(terms);
+  if (with_texels) entries.texels = texels_at(table, entries.taps);
   return entries;
 }
 

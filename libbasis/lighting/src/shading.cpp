@@ -44,14 +44,24 @@ void add_lights(std::span<const DirectionalLight> lights, const std::optional<Fr
 }
 
 // Adds capture k's directional lights to a lookup's result (see shade) towards the unit wo: f
-// from light_brdf, else from the table's entries `taps` around wo.
+// from light_brdf, else from the table's entries `taps` around wo, read texel by texel from
+// `texels` when given (the same sums, see TexelsAtWo) or walked from their roots.
 void add_capture_lights(const BrdfTableView& table, const std::array<TableTap, 4>& taps,
-                        const CaptureSetView& captures, std::size_t k,
+                        const TexelsAtWo* texels, const CaptureSetView& captures, std::size_t k,
                         const std::optional<Frame>& record, const std::optional<Frame>& shading,
                         const Vec3& wo, const Brdf* light_brdf, Convolution& result) {
   const int table_channels = table.trees.shape().channels;
   add_lights(captures.lights_of(k), record, shading, wo, light_brdf, result,
              [&](const Vec3& wi, Color& f, Color& error) {
+               if (texels) {
+                 const auto [x, y] = cosine_hemisphere_texel(wi, texels->resolution);
+                 const std::array<double, 6>& texel = texels->at(x, y);
+                 for (int c = 0; c < 3; ++c) {
+                   f[c] += texel[c];
+                   error[c] += texel[3 + c];
+                 }
+                 return;
+               }
                const Vec2 uv = cosine_hemisphere_to_square(wi);
                for (const TableTap& tap : taps) {
                  if (!tap.reads_anything()) continue;
@@ -82,8 +92,10 @@ Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, st
                   const ShadingOptions& options) {
   const Vec3 wo = outgoing_direction(options.wo);
   if (!options.normal)
-    return shade(table, EntriesAtWo{lookup_taps(table, wo, options.interpolation), std::nullopt},
-                 captures, k, options);
+    return shade(
+        table,
+        EntriesAtWo{lookup_taps(table, wo, options.interpolation), std::nullopt, std::nullopt},
+        captures, k, options);
   const Tilt tilt = capture_tilt(captures, k, *options.normal);
   Convolution result = reflect_tilted(table, captures.trees.tree(k), wo, tilt, options.tilt_mode,
                                       {options.convolution, options.interpolation});
@@ -96,7 +108,8 @@ Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, st
   // The entries around wo, read only when the lights take f from the table.
   const auto taps = options.light_brdf ? std::array<TableTap, 4>{}
                                        : lookup_taps(table, wo, options.interpolation);
-  add_capture_lights(table, taps, captures, k, record, shading, wo, options.light_brdf, result);
+  add_capture_lights(table, taps, nullptr, captures, k, record, shading, wo, options.light_brdf,
+                     result);
   return result;
 }
 
@@ -107,8 +120,8 @@ Convolution shade(const BrdfTableView& table, const EntriesAtWo& entries,
   const Vec3 wo = outgoing_direction(options.wo);
   Convolution result = reflect(table, entries, captures.trees.tree(k), options.convolution);
   if (captures.lights_of(k).empty()) return result;
-  add_capture_lights(table, entries.taps, captures, k, std::nullopt, std::nullopt, wo,
-                     options.light_brdf, result);
+  add_capture_lights(table, entries.taps, entries.texels ? &*entries.texels : nullptr, captures, k,
+                     std::nullopt, std::nullopt, wo, options.light_brdf, result);
   return result;
 }
 

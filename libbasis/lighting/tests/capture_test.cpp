@@ -9,6 +9,7 @@
 #include "basis/brdf/table_lookup.h"
 #include "basis/core/hemisphere.h"
 #include "basis/core/projection.h"
+#include "basis/core/random.h"
 #include "basis/lighting/capture.h"
 #include "basis/lighting/embree_scene.h"
 #include "basis/lighting/shading.h"
@@ -87,6 +88,52 @@ TEST(Capture, ShadingWithEntriesFoundBeforehandGivesTheConstantAndIsUntiltedOnly
   shading.wo = wo;
   shading.normal = Vec3(0, 0.1, 1).normalized();
   EXPECT_THROW(shade(table.view(), entries, set.view(), 0, shading), std::invalid_argument);
+}
+
+// Lights that take f from the table read it texel by texel from entries_at's texels or walk the
+// entries from their roots: both give the same bits, values and bounds, for a colored GGX table
+// with derivatives over wo (three groups, four entries between rows) and a grey Phong one, lights
+// anywhere on the hemisphere, on the quadrants' edges and at the horizon.
+TEST(Capture, LightsReadFromTheEntriesTexelsGiveWhatTheirWalkGives) {
+  BrdfTableOptions o;
+  o.wo_resolution = 5;
+  o.wi_resolution = 32;
+  o.tilt_derivatives = false;
+  const std::vector<BrdfTable> tables = {
+      tabulate_brdf(Ggx{{0.1, 0.2, 0.3}, {0.9, 0.6, 0.5}, 0.15}, o),
+      tabulate_brdf(Phong{{0.2, 0.2, 0.2}, {0.5, 0.5, 0.5}, 40}, o)};
+  const std::vector<SurfacePoint> points = {{Vec3::Zero(), Vec3::UnitZ()}};
+  CaptureSet set = capture_set(Environment::constant({0.1, 0.2, 0.3}), nullptr, points, {});
+  for (int i = 0; i < 400; ++i) {
+    // Random texel positions, and positions on the edges of the quadrants of levels 1 to 5.
+    const double u = i < 300 ? unit_random(2 * i) : (i % 32) / 32.0;
+    const double v = i < 300 ? unit_random(2 * i + 1) : ((i / 32) % 32) / 32.0;
+    set.lights.push_back(
+        {square_to_cosine_hemisphere(Vec2(u, v)), {1 + 0.01 * i, 2.0, 0.5 + 0.002 * i}});
+  }
+  set.lights.push_back({Vec3(1, 0, 1e-9).normalized(), {1, 1, 1}});  // at the horizon
+  set.lights.push_back({Vec3(0, -1, 1e-12).normalized(), {1, 1, 1}});
+  set.light_offsets = {0, std::uint32_t(set.lights.size())};
+  for (const BrdfTable& table : tables)
+    for (const Vec3& wo : {Vec3(0, 0, 1), Vec3(0.5, 0, 0.866), Vec3(0.3, 0.2, 0.93)}) {
+      ShadingOptions shading;
+      shading.wo = wo.normalized();
+      const EntriesAtWo walked = entries_at(table.view(), shading.wo, shading.interpolation);
+      const EntriesAtWo read =
+          entries_at(table.view(), shading.wo, shading.interpolation, /*with_texels=*/true);
+      ASSERT_TRUE(read.texels.has_value());
+      EXPECT_EQ(read.texels->resolution, 32);
+      const Convolution a = shade(table.view(), walked, set.view(), 0, shading);
+      const Convolution b = shade(table.view(), read, set.view(), 0, shading);
+      // Without lights, what they add.
+      const Convolution none = reflect(table.view(), walked, set.view().trees.tree(0));
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_EQ(a.value[c], b.value[c]) << wo.transpose() << " channel " << c;
+        EXPECT_EQ(a.bound[c], b.bound[c]) << wo.transpose() << " channel " << c;
+        EXPECT_GT(a.value[c], 2 * none.value[c]);
+        EXPECT_GT(a.bound[c], none.bound[c]);
+      }
+    }
 }
 
 void check_against_map(const std::string& name, const Environment& env) {

@@ -5,6 +5,7 @@
 
 #include <array>
 #include <optional>
+#include <vector>
 
 #include "basis/brdf/brdf_table.h"
 #include "basis/core/convolution.h"
@@ -42,11 +43,29 @@ Convolution reflect(const BrdfTableView& table, const PackedTreeView& radiance, 
 // folded trees; whatever the batch's size, so that a batch split in parts gives the same
 // results. Folding costs 0.03-1.1 ms for the main job's tables (up to about 4 ms the first time
 // in a process, as its memory is first touched).
+//
+// The entries around wo read texel by texel, for directional lights that take f from the table:
+// in texel (x, y) of the table's resolution, f, the entries' leaf values there weighted and summed
+// (RGB, a grey table's channel repeated), and its bound, the leaves' largest-deviation bounds
+// weighted by |w|. A light then reads one texel where it would walk every entry from the root;
+// the sums are made in the order of that walk, so both give the same bits. 48 bytes a texel
+// (0.75 MiB at 128^2), built in about a millisecond.
+struct TexelsAtWo {
+  int resolution = 0;
+  std::vector<std::array<double, 6>> texels;  // row y, column x: f RGB, then its bound RGB
+  const std::array<double, 6>& at(int x, int y) const {
+    return texels[std::size_t(y) * std::size_t(resolution) + std::size_t(x)];
+  }
+};
+TexelsAtWo texels_at(const BrdfTableView& table, const std::array<TableTap, 4>& taps);
+
 struct EntriesAtWo {
   std::array<TableTap, 4> taps;
   std::optional<FoldedTree> folded;
+  std::optional<TexelsAtWo> texels;  // when asked for (with_texels)
 };
-EntriesAtWo entries_at(const BrdfTableView& table, const Vec3& wo, WoInterpolation interpolation);
+EntriesAtWo entries_at(const BrdfTableView& table, const Vec3& wo, WoInterpolation interpolation,
+                       bool with_texels = false);
 
 // reflect() with the entries around wo already found (entries_at): many radiance trees looked
 // up at one wo find and fold them once. Folded, the value is the entries' up to the folded

@@ -48,8 +48,9 @@ Tilt capture_tilt(const CaptureSetView& captures, std::size_t k, const Vec3& nor
 Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, std::size_t k,
                   const ShadingOptions& options);
 // The same, untilted (std::invalid_argument with options.normal), with the entries around wo
-// found beforehand by entries_at: many captures shaded at one wo find and fold them once (the
-// lights read the entries themselves).
+// found beforehand by entries_at: many captures shaded at one wo find and fold them once. Lights
+// that take f from the table read it from the entries' texels when entries_at made them
+// (with_texels), else walk the entries themselves; both give the same bits.
 Convolution shade(const BrdfTableView& table, const EntriesAtWo& entries,
                   const CaptureSetView& captures, std::size_t k, const ShadingOptions& options);
 
