@@ -832,28 +832,35 @@ class PackedDescent {
   // texel nodes.
   template <bool kTexelA, bool kTexelB>
   void run_level(Ring& ring, float area, int depth, Sums& sums) const {
+    // The level works on copies of the constants, the sums and the ring's ends: SIMD stores may
+    // alias anything, so that every pair's stores into the ring would otherwise send the sums
+    // and constants through memory (a chain of stores and reloads from one pair to the next).
+    // The sums take the same additions in the same order: the result keeps its bits.
+    const DescentConstants<CA, CB> k = k_;
+    Sums level_sums = sums;
+    unsigned head = ring.head, tail = ring.tail;
     const LevelNodes nodes = level_nodes(depth), children_nodes = level_nodes(depth + 1);
-    for (const unsigned level_end = ring.tail; ring.head != level_end;) {
-      const std::uint32_t na = ring.pairs[ring.head & kMask][0];
-      const std::uint32_t nb = ring.pairs[ring.head & kMask][1];
-      ++ring.head;
+    for (const unsigned level_end = tail; head != level_end;) {
+      const std::uint32_t na = ring.pairs[head & kMask][0];
+      const std::uint32_t nb = ring.pairs[head & kMask][1];
+      ++head;
       const std::uint32_t* wa = nodes.a + std::size_t(na) * nodes.stride_a;
       const std::uint32_t* wb = nodes.b + std::size_t(nb) * nodes.stride_b;
       if constexpr (kTexelA || kTexelB) {
         // A texel node has no children: nothing goes on.
-        Pairs::template visit<kTexelA, kTexelB>(k_, wa, wb, 0, area, sums);
+        Pairs::template visit<kTexelA, kTexelB>(k, wa, wb, 0, area, level_sums);
         continue;
       }
       const std::uint32_t la = wa[0], lb = wb[0];
       const unsigned internal =
-          Pairs::template visit<false, false>(k_, wa, wb, la & lb & 0xFu, area, sums);
+          Pairs::template visit<false, false>(k, wa, wb, la & lb & 0xFu, area, level_sums);
       // Without a branch on the data (which no predictor learns): every quadrant's pair is
       // written, the tail passes the internal ones.
-      if (ring.tail - ring.head > kRing - 4) [[unlikely]] {
+      if (tail - head > kRing - 4) [[unlikely]] {
         // No room: descend this pair's internal quadrants now, each in a nested call.
         for (unsigned q = 0; q < 4; ++q)
           if (internal >> q & 1)
-            sums.add(run(first_child(la, q), first_child(lb, q), area * 0.25f, depth + 1));
+            level_sums.add(run(first_child(la, q), first_child(lb, q), area * 0.25f, depth + 1));
         continue;
       }
       const __m128i ca = _mm_add_epi32(_mm_set1_epi32(int(la >> 4)), child_offsets(la));
@@ -868,16 +875,19 @@ class PackedDescent {
         _mm_prefetch(reinterpret_cast<const char*>(children_nodes.b + std::size_t(children[q]) *
                                                                           children_nodes.stride_b),
                      _MM_HINT_T0);
-      auto slot = [&] { return reinterpret_cast<__m128i*>(&ring.pairs[ring.tail & kMask]); };
+      auto slot = [&] { return reinterpret_cast<__m128i*>(&ring.pairs[tail & kMask]); };
       _mm_storel_epi64(slot(), low);
-      ring.tail += internal & 1;
+      tail += internal & 1;
       _mm_storel_epi64(slot(), _mm_srli_si128(low, 8));
-      ring.tail += internal >> 1 & 1;
+      tail += internal >> 1 & 1;
       _mm_storel_epi64(slot(), high);
-      ring.tail += internal >> 2 & 1;
+      tail += internal >> 2 & 1;
       _mm_storel_epi64(slot(), _mm_srli_si128(high, 8));
-      ring.tail += internal >> 3 & 1;
+      tail += internal >> 3 & 1;
     }
+    ring.head = head;
+    ring.tail = tail;
+    sums = level_sums;
   }
 
   static std::uint32_t first_child(std::uint32_t link, unsigned q) {
