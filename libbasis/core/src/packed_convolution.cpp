@@ -763,11 +763,12 @@ struct WidePairs {
 
 #endif  // AVX-512
 
-// Breadth-first simultaneous descent of packed trees a (groups 0..GA-1) and b (group 0): pairs
-// are taken first in, first out from a ring, so that consecutive pairs do not depend on each
-// other and, nodes lying breadth first, each level's nodes are read in increasing address
-// order. Each pair's arithmetic is the policy's (SSE, or AVX-512 for RGB); sums are kept
-// without the trees' scales, applied once at the end.
+// Breadth-first simultaneous descent of packed trees a (groups 0..GA-1) and b (group 0): a
+// level's pairs are visited in the order they were queued, and the pairs of their internal
+// quadrants queued for the next level, so that consecutive pairs do not depend on each other and,
+// nodes lying breadth first, each level's nodes are read in increasing address order. Each
+// pair's arithmetic is the policy's (SSE, or AVX-512 for RGB); sums are kept without the trees'
+// scales, applied once at the end.
 template <typename Pairs, int CA, int CB>
 class PackedDescent {
  public:
@@ -780,22 +781,23 @@ class PackedDescent {
   Sums run(std::uint32_t root_a, std::uint32_t root_b, float quadrant_area, int depth) const {
     if (depth > kMaxTreeLevels) throw std::runtime_error("quadtree deeper than its resolution");
     Sums sums;
-    Ring ring;
-    ring.pairs[0][0] = root_a;
-    ring.pairs[0][1] = root_b;
-    ring.tail = 1;
+    Levels levels;
+    levels.pairs[depth & 1][0] = {root_a, root_b};
+    unsigned count = 1;
     // Level by level: the texel nodes of exact texels (values alone, no children) are the last
     // level's, so which kind of node a pair holds is known per level, not per pair.
-    for (float area = quadrant_area; ring.head != ring.tail; area *= 0.25f, ++depth) {
+    for (float area = quadrant_area; count > 0; area *= 0.25f, ++depth) {
+      const Pair* pairs = levels.pairs[depth & 1];
+      Pair* next = levels.pairs[~depth & 1];
       const bool texel_a = depth == k_.texel_depth_a, texel_b = depth == k_.texel_depth_b;
       if (!texel_a && !texel_b) [[likely]]
-        run_level<false, false>(ring, area, depth, sums);
+        count = run_level<false, false>(pairs, count, next, area, depth, sums);
       else if (!texel_a)
-        run_level<false, true>(ring, area, depth, sums);
+        count = run_level<false, true>(pairs, count, next, area, depth, sums);
       else if (!texel_b)
-        run_level<true, false>(ring, area, depth, sums);
+        count = run_level<true, false>(pairs, count, next, area, depth, sums);
       else
-        run_level<true, true>(ring, area, depth, sums);
+        count = run_level<true, true>(pairs, count, next, area, depth, sums);
     }
     return sums;
   }
@@ -809,16 +811,19 @@ class PackedDescent {
   }
 
  private:
-  // Room for two of a real lookup's widest levels (at 128^2, on average about 300 pairs each
-  // for the main job's GGX entries, 600-800 against the forest's captures): a pair that finds
-  // the ring full descends apart, in nested calls, and at 256 pairs that cost a GGX lookup a
+  // Room for a real lookup's widest level (at 128^2, on average about 300 pairs for the main
+  // job's GGX entries, 600-800 against the forest's captures): a pair whose children find the
+  // next level full descends apart, in nested calls, and at 256 pairs that cost a GGX lookup a
   // fifth of its time.
-  static constexpr unsigned kRing = 2048, kMask = kRing - 1;
+  static constexpr unsigned kLevelPairs = 2048;
 
-  // Pairs of nodes (of a, of b) waiting, first in, first out: [head, tail) modulo kRing.
-  struct Ring {
-    alignas(16) std::uint32_t pairs[kRing][2];
-    unsigned head = 0, tail = 0;
+  // A pair of nodes, of a and of b.
+  struct Pair {
+    std::uint32_t a, b;
+  };
+  // The pairs of the level being visited and of the next, alternately (level d in pairs[d & 1]).
+  struct Levels {
+    alignas(32) Pair pairs[2][kLevelPairs];
   };
 
   LevelNodes level_nodes(int depth) const {
@@ -827,25 +832,22 @@ class PackedDescent {
             texel_a ? k_.texel_words_a : k_.words_a, texel_b ? k_.texel_words_b : k_.words_b};
   }
 
-  // Visits the pairs of one level (those in the ring when it starts), queueing the pairs of
-  // their internal quadrants for the next. kTexelA, kTexelB: the level's nodes of a, of b, are
-  // texel nodes.
+  // Visits the `count` pairs of one level, writes the pairs of their internal quadrants to
+  // `next` and returns how many. kTexelA, kTexelB: the level's nodes of a, of b, are texel nodes.
   template <bool kTexelA, bool kTexelB>
-  void run_level(Ring& ring, float area, int depth, Sums& sums) const {
-    // The level works on copies of the constants, the sums and the ring's ends: SIMD stores may
-    // alias anything, so that every pair's stores into the ring would otherwise send the sums
-    // and constants through memory (a chain of stores and reloads from one pair to the next).
-    // The sums take the same additions in the same order: the result keeps its bits.
+  unsigned run_level(const Pair* pairs, unsigned count, Pair* next, float area, int depth,
+                     Sums& sums) const {
+    // The level works on copies of the constants and the sums: SIMD stores may alias anything,
+    // so that every pair's stores into the next level would otherwise send the sums and
+    // constants through memory (a chain of stores and reloads from one pair to the next). The
+    // sums take the same additions in the same order: the result keeps its bits.
     const DescentConstants<CA, CB> k = k_;
     Sums level_sums = sums;
-    unsigned head = ring.head, tail = ring.tail;
+    unsigned queued = 0;
     const LevelNodes nodes = level_nodes(depth), children_nodes = level_nodes(depth + 1);
-    for (const unsigned level_end = tail; head != level_end;) {
-      const std::uint32_t na = ring.pairs[head & kMask][0];
-      const std::uint32_t nb = ring.pairs[head & kMask][1];
-      ++head;
-      const std::uint32_t* wa = nodes.a + std::size_t(na) * nodes.stride_a;
-      const std::uint32_t* wb = nodes.b + std::size_t(nb) * nodes.stride_b;
+    for (unsigned i = 0; i < count; ++i) {
+      const std::uint32_t* wa = nodes.a + std::size_t(pairs[i].a) * nodes.stride_a;
+      const std::uint32_t* wb = nodes.b + std::size_t(pairs[i].b) * nodes.stride_b;
       if constexpr (kTexelA || kTexelB) {
         // A texel node has no children: nothing goes on.
         Pairs::template visit<kTexelA, kTexelB>(k, wa, wb, 0, area, level_sums);
@@ -854,40 +856,47 @@ class PackedDescent {
       const std::uint32_t la = wa[0], lb = wb[0];
       const unsigned internal =
           Pairs::template visit<false, false>(k, wa, wb, la & lb & 0xFu, area, level_sums);
-      // Without a branch on the data (which no predictor learns): every quadrant's pair is
-      // written, the tail passes the internal ones.
-      if (tail - head > kRing - 4) [[unlikely]] {
+      if (queued > kLevelPairs - 4) [[unlikely]] {
         // No room: descend this pair's internal quadrants now, each in a nested call.
         for (unsigned q = 0; q < 4; ++q)
           if (internal >> q & 1)
             level_sums.add(run(first_child(la, q), first_child(lb, q), area * 0.25f, depth + 1));
         continue;
       }
+      // The children are read when their level comes: ask for them now, so that memory
+      // latency overlaps the rest of this level. A node's children lie next to each other:
+      // their first two cache lines (all four of a capture's full nodes, 128 bytes, when the
+      // first starts a line), whichever quadrants go on (prefetches never fault, and a branch
+      // per quadrant cost more than they do).
+      const char* children_b = reinterpret_cast<const char*>(
+          children_nodes.b + std::size_t(lb >> 4) * children_nodes.stride_b);
+      _mm_prefetch(children_b, _MM_HINT_T0);
+      _mm_prefetch(children_b + 64, _MM_HINT_T0);
+      // Without a branch on the data (which no predictor learns): the pairs of the internal
+      // quadrants are written one after the other, with room for all four.
       const __m128i ca = _mm_add_epi32(_mm_set1_epi32(int(la >> 4)), child_offsets(la));
       const __m128i cb = _mm_add_epi32(_mm_set1_epi32(int(lb >> 4)), child_offsets(lb));
       const __m128i low = _mm_unpacklo_epi32(ca, cb), high = _mm_unpackhi_epi32(ca, cb);
-      // The children are read when their level comes: ask for them now, so that memory
-      // latency overlaps the rest of this level. All four, internal or not: prefetches never
-      // fault, and a branch per quadrant cost more (about 17 % of a GGX lookup) than they do.
-      alignas(16) std::uint32_t children[4];
-      _mm_store_si128(reinterpret_cast<__m128i*>(children), cb);
-      for (unsigned q = 0; q < 4; ++q)
-        _mm_prefetch(reinterpret_cast<const char*>(children_nodes.b + std::size_t(children[q]) *
-                                                                          children_nodes.stride_b),
-                     _MM_HINT_T0);
-      auto slot = [&] { return reinterpret_cast<__m128i*>(&ring.pairs[tail & kMask]); };
-      _mm_storel_epi64(slot(), low);
-      tail += internal & 1;
-      _mm_storel_epi64(slot(), _mm_srli_si128(low, 8));
-      tail += internal >> 1 & 1;
-      _mm_storel_epi64(slot(), high);
-      tail += internal >> 2 & 1;
-      _mm_storel_epi64(slot(), _mm_srli_si128(high, 8));
-      tail += internal >> 3 & 1;
+      Pair* slot = next + queued;
+#if defined(__AVX512F__) && defined(__AVX512VL__)
+      const __m256i four = _mm256_inserti128_si256(_mm256_castsi128_si256(low), high, 1);
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(slot),
+                          _mm256_maskz_compress_epi64(__mmask8(internal), four));
+      queued += unsigned(std::popcount(internal));
+#else
+      _mm_storel_epi64(reinterpret_cast<__m128i*>(slot), low);
+      slot += internal & 1;
+      _mm_storel_epi64(reinterpret_cast<__m128i*>(slot), _mm_srli_si128(low, 8));
+      slot += internal >> 1 & 1;
+      _mm_storel_epi64(reinterpret_cast<__m128i*>(slot), high);
+      slot += internal >> 2 & 1;
+      _mm_storel_epi64(reinterpret_cast<__m128i*>(slot), _mm_srli_si128(high, 8));
+      slot += internal >> 3 & 1;
+      queued = unsigned(slot - next);
+#endif
     }
-    ring.head = head;
-    ring.tail = tail;
     sums = level_sums;
+    return queued;
   }
 
   static std::uint32_t first_child(std::uint32_t link, unsigned q) {
