@@ -11,11 +11,14 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <new>
 #include <string>
 #include <utility>
 
 #include "basis_generated.h"
+#include "tbb/blocked_range.h"
+#include "tbb/parallel_for.h"
 
 namespace basis {
 
@@ -376,6 +379,89 @@ TreeSetView QtFile::verify_tree_set(const void* set_pointer, const std::string& 
                        : verify_and_pack_float_trees(set, what, shape);
 }
 
+TreeSetView QtFile::restore_elided_trees(
+    const PackedShape& shape, std::span<const TreeExtent> extents,
+    std::span<const std::uint32_t> words, const std::string& what,
+    const std::function<std::string(const TreeExtent&)>& extent_problem) {
+  auto out_of_memory = [&] {
+    fail(name_, what + ": not enough memory to restore the trees' refined values");
+  };
+  const int levels = std::countr_zero(unsigned(shape.resolution));
+  const std::uint64_t largest_tree = ((std::uint64_t(1) << (2 * levels)) - 1) / 3;
+  const std::size_t count = extents.size();
+  // Where each tree goes in the restored set, whose size is allocated once (at most 8 words in
+  // memory per word stored; a tree whose extent is refused below takes none).
+  std::vector<TreeExtent> restored_extents(extents.begin(), extents.end());
+  std::uint64_t restored_words = 0;
+  for (TreeExtent& e : restored_extents) {
+    e.first_word = std::uint32_t(std::min<std::uint64_t>(restored_words, UINT32_MAX));
+    if (e.texel_start <= e.node_count && e.node_count <= largest_tree)
+      restored_words += packed_node_offset(shape, e.texel_start, e.node_count);
+  }
+  if (restored_words > std::min<std::uint64_t>(8 * std::uint64_t(words.size()), UINT32_MAX))
+    fail(name_, what + ": the trees' nodes restore to more words than the set can hold");
+  std::vector<std::uint32_t> restored;
+  try {
+    restored.resize(std::size_t(restored_words));
+  } catch (const std::bad_alloc&) {
+    out_of_memory();
+  }
+  // Each tree read from its first word on, checked and restored into its place, in parallel;
+  // what refused it is reported below in the trees' order, as a reading in order meets it.
+  struct Outcome {
+    std::string extent_problem, tree_problem;
+    bool out_of_memory = false;
+    std::uint64_t words_read = 0;
+  };
+  std::vector<Outcome> outcomes(count);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 16), [&](const auto& range) {
+    PackedTree read;
+    std::vector<double> scratch;
+    std::vector<std::uint8_t> depth;
+    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      const TreeExtent& e = extents[i];
+      Outcome& out = outcomes[i];
+      out.extent_problem = extent_problem(e);
+      if (!out.extent_problem.empty() || e.first_word > words.size()) continue;
+      if (e.node_count > largest_tree) {
+        out.tree_problem = std::to_string(e.node_count) + " nodes, more than a tree of " +
+                           std::to_string(shape.resolution) + "² holds";
+        continue;
+      }
+      try {
+        out.words_read = read_elided_tree(shape, e.scales, words.subspan(e.first_word),
+                                          e.node_count, e.texel_start, read);
+        if (out.tree_problem = link_problem(read.view(), depth); !out.tree_problem.empty())
+          continue;
+        derive_refined_values(read, DerivedBoundRange::refuse, scratch);
+      } catch (const std::invalid_argument& error) {
+        out.tree_problem = error.what();
+        continue;
+      } catch (const std::bad_alloc&) {
+        out.out_of_memory = true;
+        continue;
+      }
+      std::copy(read.words.begin(), read.words.end(),
+                restored.begin() + std::ptrdiff_t(restored_extents[i].first_word));
+    }
+  });
+  std::uint64_t total = 0;
+  for (std::size_t i = 0; i < count; ++i) {
+    const Outcome& out = outcomes[i];
+    if (extents[i].first_word != total) fail(name_, what + ": tree extents are not contiguous");
+    if (!out.extent_problem.empty()) fail(name_, what + ": " + out.extent_problem);
+    if (!out.tree_problem.empty())
+      fail(name_, what + ": tree " + std::to_string(i) + ": " + out.tree_problem);
+    if (out.out_of_memory) out_of_memory();
+    total += out.words_read;
+  }
+  if (words.size() != total)
+    fail(name_, what + ": node data hold " + std::to_string(words.size()) + " words, " +
+                    std::to_string(total) + " expected");
+  converted_.emplace_back(shape, std::move(restored_extents), std::move(restored));
+  return converted_.back().view();
+}
+
 TreeSetView QtFile::verify_packed_trees(const void* set_pointer, const std::string& what,
                                         const QuadtreeShape& s) {
   const auto* set = static_cast<const fb::TreeSet*>(set_pointer);
@@ -423,95 +509,53 @@ TreeSetView QtFile::verify_packed_trees(const void* set_pointer, const std::stri
   const bool elided = version_ >= 7 && set->refined_values_elided();
   if (elided && !has_derived_values(shape))
     fail(name_, what + ": only sets of shared-exponent values leave out refined nodes' values");
-  // Every tree's extent; for the elided layout, its words as read, with the values restored.
-  const int levels = std::countr_zero(unsigned(shape.resolution));
-  const std::uint64_t largest_tree = ((std::uint64_t(1) << (2 * levels)) - 1) / 3;
-  std::vector<std::uint8_t> depth;
-  TreeSet restored(shape);
-  PackedTree read;
-  std::vector<double> scratch;
-  // The restored set's size, reserved once: at most 8 words in memory per word stored.
-  auto out_of_memory = [&] {
-    fail(name_, what + ": not enough memory to restore the trees' refined values");
-  };
-  if (elided) {
-    std::uint64_t restored_words = 0;
-    for (const TreeExtent& e : extents)
-      if (e.texel_start <= e.node_count && e.node_count <= largest_tree)
-        restored_words += packed_node_offset(shape, e.texel_start, e.node_count);
-    try {
-      restored.reserve(extents.size(),
-                       std::size_t(std::min(restored_words, 8 * std::uint64_t(words.size()))));
-    } catch (const std::bad_alloc&) {
-      out_of_memory();
-    }
-  }
-  std::uint64_t total = 0;
-  for (std::size_t i = 0; i < extents.size(); ++i) {
-    const TreeExtent& e = extents[i];
-    if (e.first_word != total) fail(name_, what + ": tree extents are not contiguous");
-    if (e.node_count == 0) fail(name_, what + ": a tree has no nodes");
+  auto extent_problem = [&](const TreeExtent& e) -> std::string {
+    if (e.node_count == 0) return "a tree has no nodes";
     if (e.texel_start > e.node_count || (!exact_texels && e.texel_start != e.node_count))
-      fail(name_, what + ": a tree's first texel node " + std::to_string(e.texel_start) +
-                      " is past its " + std::to_string(e.node_count) + " nodes" +
-                      (exact_texels ? "" : ", or set without exact texels"));
+      return "a tree's first texel node " + std::to_string(e.texel_start) + " is past its " +
+             std::to_string(e.node_count) + " nodes" +
+             (exact_texels ? "" : ", or set without exact texels");
     if (!(e.scales.value_scale > 0 && e.scales.value_scale < INFINITY) ||
         !(e.scales.bound_scale > 0 && e.scales.bound_scale < INFINITY))
-      fail(name_, what + ": a tree's scales are not finite positive numbers");
-    if (!elided) {
-      total += e.word_count(shape);
-      if (total > words.size()) break;
-      continue;
-    }
-    auto tree_problem = [&](const std::string& problem) {
-      fail(name_, what + ": tree " + std::to_string(i) + ": " + problem);
-    };
-    if (e.node_count > largest_tree)
-      tree_problem(std::to_string(e.node_count) + " nodes, more than a tree of " +
-                   std::to_string(shape.resolution) + "² holds");
-    try {
-      total += read_elided_tree(shape, e.scales, words.subspan(std::size_t(total)), e.node_count,
-                                e.texel_start, read);
-    } catch (const std::invalid_argument& error) {
-      tree_problem(error.what());
-    } catch (const std::bad_alloc&) {
-      out_of_memory();
-    }
-    if (const std::string problem = link_problem(read.view(), depth); !problem.empty())
-      tree_problem(problem);
-    try {
-      derive_refined_values(read, DerivedBoundRange::refuse, scratch);
-    } catch (const std::invalid_argument& error) {
-      tree_problem(error.what());
-    }
-    try {
-      restored.append(read.view());
-    } catch (const std::bad_alloc&) {
-      out_of_memory();
-    }
+      return "a tree's scales are not finite positive numbers";
+    return {};
+  };
+  if (elided) return restore_elided_trees(shape, extents, words, what, extent_problem);
+  std::uint64_t total = 0;
+  for (const TreeExtent& e : extents) {
+    if (e.first_word != total) fail(name_, what + ": tree extents are not contiguous");
+    if (const std::string problem = extent_problem(e); !problem.empty())
+      fail(name_, what + ": " + problem);
+    total += e.word_count(shape);
+    if (total > words.size()) break;
   }
   if (words.size() != total)
     fail(name_, what + ": node data hold " + std::to_string(words.size()) + " words, " +
                     (total > words.size() ? "more" : std::to_string(total)) + " expected");
-  if (elided) {
-    converted_.push_back(std::move(restored));
-    return converted_.back().view();
-  }
+  // Each tree's links and values checked, in parallel; the first tree refused is reported.
   const TreeSetView view(shape, extents, words);
-  for (std::size_t i = 0; i < view.size(); ++i) {
-    const PackedTreeView tree = view.tree(i);
-    if (const std::string problem = link_problem(tree, depth); !problem.empty())
-      fail(name_, what + ": tree " + std::to_string(i) + ": " + problem);
-    // Values: halves that are neither infinite nor NaN (exponent bits all ones). Every
-    // shared-exponent word is a finite value.
-    const int halves = 2 * shape.groups * shape.channels * 2;
-    for (int n = 0; n < (shape.shared_values() ? 0 : tree.node_count()); ++n) {
-      const std::uint16_t* h = tree.halves(n);
-      for (int k = 0; k < halves; ++k)
-        if ((h[k] & 0x7c00u) == 0x7c00u)
-          fail(name_, what + ": a node holds a NaN or infinite value");
+  std::vector<std::string> problems(view.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, view.size(), 16), [&](const auto& range) {
+    std::vector<std::uint8_t> depth;
+    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      const PackedTreeView tree = view.tree(i);
+      if (std::string problem = link_problem(tree, depth); !problem.empty()) {
+        problems[i] = "tree " + std::to_string(i) + ": " + problem;
+        continue;
+      }
+      // Values: halves that are neither infinite nor NaN (exponent bits all ones). Every
+      // shared-exponent word is a finite value.
+      const int halves = 2 * shape.groups * shape.channels * 2;
+      for (int n = 0; n < (shape.shared_values() ? 0 : tree.node_count()); ++n) {
+        const std::uint16_t* h = tree.halves(n);
+        for (int k = 0; k < halves; ++k)
+          if ((h[k] & 0x7c00u) == 0x7c00u) problems[i] = "a node holds a NaN or infinite value";
+        if (!problems[i].empty()) break;
+      }
     }
-  }
+  });
+  for (const std::string& problem : problems)
+    if (!problem.empty()) fail(name_, what + ": " + problem);
   return view;
 }
 

@@ -1,6 +1,7 @@
 // The .qt format: round trips keep bits and convolution results; corrupt, truncated, foreign
 // and future files are rejected with one clear line; writes are atomic.
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <algorithm>
 #include <cmath>
@@ -724,6 +725,76 @@ TEST(QtFormat, CaptureSetsLeaveOutRefinedValuesAndGetThemBack) {
   small.scales.bound_scale *= 0x1p-12f;
   EXPECT_NE(load_error(elided_file(tree, small, elided)).find("a derived bound exceeds"),
             std::string::npos);
+}
+
+// Loading checks and restores the trees of a set in parallel: many trees come back word for word
+// whatever the number of threads, and of two trees refused, the first is named, as a reading
+// in order names it (an extent out of place before it is named first); in-place sets alike.
+TEST(QtFormat, TreesCheckedInParallelNameTheFirstRefused) {
+  const PackedTree tree = pack_exact_texels(sample_float_tree(32, 3, 0, 0.0));
+  const std::vector<std::uint32_t> elided = elide_refined_values(tree.view());
+  constexpr std::uint32_t kTrees = 70;
+  auto set_of = [&](std::span<const std::uint32_t> one, std::vector<TreeExtent>& extents,
+                    std::vector<std::uint32_t>& words) {
+    extents.clear();
+    words.clear();
+    for (std::uint32_t i = 0; i < kTrees; ++i) {
+      TreeExtent e = whole_tree(tree);
+      e.first_word = std::uint32_t(words.size());
+      // Trees that differ, in their scales (by powers of two: the same words restored).
+      e.scales.value_scale *= float(1u << (i % 8));
+      e.scales.bound_scale *= float(1u << (i % 8));
+      extents.push_back(e);
+      words.insert(words.end(), one.begin(), one.end());
+    }
+  };
+  std::vector<TreeExtent> extents;
+  std::vector<std::uint32_t> words;
+  set_of(elided, extents, words);
+  // The points of a capture set of that many trees.
+  const std::vector<Vec3> points(kTrees, Vec3::UnitZ()), tangents(kTrees, Vec3::UnitX());
+  auto file_of = [&](std::span<const TreeExtent> e, std::span<const std::uint32_t> w, bool elide) {
+    const TreeSetView trees(tree.shape, e, w);
+    const CaptureSetView captures{points, points, tangents, trees, {}, {}};
+    return unchecked_file(trees, &captures, 0, kQtFormatVersion, 1, -1, elide);
+  };
+  for (const int threads : {1, 2, 4}) {
+    const tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
+                                    std::size_t(threads));
+    const QtFile file = QtFile::from_bytes(file_of(extents, words, true), "set.qt");
+    ASSERT_EQ(file.trees().size(), kTrees);
+    for (std::uint32_t i = 0; i < kTrees; ++i) {
+      EXPECT_TRUE(same_words(file.trees().tree(i).words(), tree.words)) << i;
+      EXPECT_EQ(file.trees().tree(i).scales(), extents[i].scales) << i;
+    }
+    // Tree 41's bounds do not fit its scale, tree 57 claims too many nodes: 41 is named.
+    std::vector<TreeExtent> bad = extents;
+    bad[41].scales.bound_scale *= 0x1p-12f;
+    bad[57].node_count = 0x7fffffffu;
+    EXPECT_NE(load_error(file_of(bad, words, true)).find("tree 41: a derived bound exceeds"),
+              std::string::npos)
+        << threads;
+    bad[57] = extents[57];
+    bad[60].node_count = 0x7fffffffu;
+    bad[41] = extents[41];
+    EXPECT_NE(load_error(file_of(bad, words, true)).find("tree 60: 2147483647 nodes"),
+              std::string::npos);
+    // Tree 12's extent is out of place: named before tree 60's problem.
+    bad[12].first_word += 1;
+    EXPECT_NE(load_error(file_of(bad, words, true)).find("tree extents are not contiguous"),
+              std::string::npos);
+    // In place (version 6 layout, every node whole): tree 33's broken link before tree 50's.
+    std::vector<TreeExtent> whole_extents;
+    std::vector<std::uint32_t> whole_words;
+    set_of(tree.words, whole_extents, whole_words);
+    EXPECT_EQ(load_error(file_of(whole_extents, whole_words, false)), "");
+    const std::size_t node_words = std::size_t(tree.shape.words_per_node());
+    whole_words[whole_extents[33].first_word] += 16;  // the root's children start elsewhere
+    whole_words[whole_extents[50].first_word + node_words] += 16;
+    EXPECT_NE(load_error(file_of(whole_extents, whole_words, false)).find("tree 33: node 0 links"),
+              std::string::npos)
+        << threads;
+  }
 }
 
 TEST(QtFormat, WritesAreAtomic) {

@@ -1,8 +1,16 @@
 #include "basis/core/tree_set.h"
 
 #include <stdexcept>
+#include <utility>
 
 namespace basis {
+
+TreeSet::TreeSet(PackedShape shape, std::vector<TreeExtent> extents,
+                 std::vector<std::uint32_t> words)
+    : shape_(shape), extents_(std::move(extents)), words_(std::move(words)) {
+  for (const TreeExtent& e : extents_)
+    total_nodes_ += e.node_count;
+}
 
 void TreeSet::append(const PackedTreeView& tree) {
   if (!(tree.shape() == shape_))

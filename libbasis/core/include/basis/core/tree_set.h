@@ -69,6 +69,9 @@ class TreeSet {
  public:
   TreeSet() = default;
   explicit TreeSet(PackedShape shape) : shape_(shape) {}
+  // The trees laid out by `extents` in `words`, taken as they are (for a reader that has checked
+  // them).
+  TreeSet(PackedShape shape, std::vector<TreeExtent> extents, std::vector<std::uint32_t> words);
 
   // Appends a packed tree of the set's shape (throws std::invalid_argument otherwise).
   void append(const PackedTreeView& tree);
