@@ -123,6 +123,25 @@ TEST(Capture, LightsReadFromTheEntriesTexelsGiveWhatTheirWalkGives) {
           entries_at(table.view(), shading.wo, shading.interpolation, /*with_texels=*/true);
       ASSERT_TRUE(read.texels.has_value());
       EXPECT_EQ(read.texels->resolution, 32);
+      // Texel by texel, in doubles: each entry's leaf there, found from the root.
+      for (int y = 0; y < 32; y += 3)
+        for (int x = 0; x < 32; x += 3) {
+          std::array<double, 6> walk{};
+          for (const TableTap& tap : read.taps) {
+            if (!tap.reads_anything()) continue;
+            const PackedTreeView entry = table.view().entry(tap.i, tap.j);
+            const LeafQuadrant leaf = find_leaf(entry, (x + 0.5) / 32, (y + 0.5) / 32);
+            for (int g = 0; g < (tap.reads_derivatives() ? 3 : 1); ++g)
+              for (int c = 0; c < 3; ++c) {
+                const int channel = std::min(c, entry.shape().channels - 1);
+                walk[c] += tap.weights[g] * entry.value(leaf.node, g, channel, leaf.quadrant);
+                walk[3 + c] +=
+                    std::abs(tap.weights[g]) *
+                    entry.largest_deviation_bound(leaf.node, g, channel, leaf.quadrant, leaf.level);
+              }
+          }
+          EXPECT_EQ(read.texels->at(x, y), walk) << x << " " << y;
+        }
       const Convolution a = shade(table.view(), walked, set.view(), 0, shading);
       const Convolution b = shade(table.view(), read, set.view(), 0, shading);
       // Without lights, what they add.
