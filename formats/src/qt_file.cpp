@@ -11,7 +11,6 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
-#include <functional>
 #include <new>
 #include <string>
 #include <utility>
@@ -134,6 +133,19 @@ std::string link_problem(const PackedTreeView& tree, std::vector<std::uint8_t>& 
     next += std::uint64_t(children);
   }
   if (next != std::uint64_t(count)) return std::to_string(count - next) + " nodes are unreachable";
+  return {};
+}
+
+// What is wrong with a tree's extent in a set with or without exact texels ("" if nothing).
+std::string extent_problem(const TreeExtent& e, bool exact_texels) {
+  if (e.node_count == 0) return "a tree has no nodes";
+  if (e.texel_start > e.node_count || (!exact_texels && e.texel_start != e.node_count))
+    return "a tree's first texel node " + std::to_string(e.texel_start) + " is past its " +
+           std::to_string(e.node_count) + " nodes" +
+           (exact_texels ? "" : ", or set without exact texels");
+  if (!(e.scales.value_scale > 0 && e.scales.value_scale < INFINITY) ||
+      !(e.scales.bound_scale > 0 && e.scales.bound_scale < INFINITY))
+    return "a tree's scales are not finite positive numbers";
   return {};
 }
 
@@ -379,10 +391,10 @@ TreeSetView QtFile::verify_tree_set(const void* set_pointer, const std::string& 
                        : verify_and_pack_float_trees(set, what, shape);
 }
 
-TreeSetView QtFile::restore_elided_trees(
-    const PackedShape& shape, std::span<const TreeExtent> extents,
-    std::span<const std::uint32_t> words, const std::string& what,
-    const std::function<std::string(const TreeExtent&)>& extent_problem) {
+TreeSetView QtFile::restore_elided_trees(const PackedShape& shape,
+                                         std::span<const TreeExtent> extents,
+                                         std::span<const std::uint32_t> words,
+                                         const std::string& what) {
   auto out_of_memory = [&] {
     fail(name_, what + ": not enough memory to restore the trees' refined values");
   };
@@ -421,7 +433,7 @@ TreeSetView QtFile::restore_elided_trees(
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
       const TreeExtent& e = extents[i];
       Outcome& out = outcomes[i];
-      out.extent_problem = extent_problem(e);
+      out.extent_problem = extent_problem(e, shape.exact_texels);
       if (!out.extent_problem.empty() || e.first_word > words.size()) continue;
       if (e.node_count > largest_tree) {
         out.tree_problem = std::to_string(e.node_count) + " nodes, more than a tree of " +
@@ -509,22 +521,11 @@ TreeSetView QtFile::verify_packed_trees(const void* set_pointer, const std::stri
   const bool elided = version_ >= 7 && set->refined_values_elided();
   if (elided && !has_derived_values(shape))
     fail(name_, what + ": only sets of shared-exponent values leave out refined nodes' values");
-  auto extent_problem = [&](const TreeExtent& e) -> std::string {
-    if (e.node_count == 0) return "a tree has no nodes";
-    if (e.texel_start > e.node_count || (!exact_texels && e.texel_start != e.node_count))
-      return "a tree's first texel node " + std::to_string(e.texel_start) + " is past its " +
-             std::to_string(e.node_count) + " nodes" +
-             (exact_texels ? "" : ", or set without exact texels");
-    if (!(e.scales.value_scale > 0 && e.scales.value_scale < INFINITY) ||
-        !(e.scales.bound_scale > 0 && e.scales.bound_scale < INFINITY))
-      return "a tree's scales are not finite positive numbers";
-    return {};
-  };
-  if (elided) return restore_elided_trees(shape, extents, words, what, extent_problem);
+  if (elided) return restore_elided_trees(shape, extents, words, what);
   std::uint64_t total = 0;
   for (const TreeExtent& e : extents) {
     if (e.first_word != total) fail(name_, what + ": tree extents are not contiguous");
-    if (const std::string problem = extent_problem(e); !problem.empty())
+    if (const std::string problem = extent_problem(e, exact_texels); !problem.empty())
       fail(name_, what + ": " + problem);
     total += e.word_count(shape);
     if (total > words.size()) break;

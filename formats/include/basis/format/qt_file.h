@@ -4,7 +4,6 @@
 
 #include <cstddef>
 #include <cstdint>
-#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -98,7 +97,9 @@ class QtFile {
   // converted), or restored into converted_ when their derived values were left out.
   TreeSetView verify_packed_trees(const void* set, const std::string& what,
                                   const QuadtreeShape& shape);
-  // The elided layout's trees restored (in parallel) into converted_, each checked as it is read;
+  // The elided layout's trees restored (in parallel) into converted_, each checked as it is read.
+  TreeSetView restore_elided_trees(const PackedShape& shape, std::span<const TreeExtent> extents,
+                                   std::span<const std::uint32_t> words, const std::string& what);
   // extent_problem says what is wrong with an extent ("" if nothing).
   TreeSetView restore_elided_trees(
       const PackedShape& shape, std::span<const TreeExtent> extents,
