@@ -401,8 +401,9 @@ TreeSetView QtFile::restore_elided_trees(const PackedShape& shape,
   const int levels = std::countr_zero(unsigned(shape.resolution));
   const std::uint64_t largest_tree = ((std::uint64_t(1) << (2 * levels)) - 1) / 3;
   const std::size_t count = extents.size();
-  // Where each tree goes in the restored set, whose size is allocated once (at most 8 words in
-  // memory per word stored; a tree whose extent is refused below takes none).
+  // Where each tree goes in the restored set, allocated once: at most 8 words in memory per word
+  // stored (a tree whose extent is refused below takes none). Trees past that are still checked,
+  // and the first tree that does not fit is refused in its place in the trees' order.
   std::vector<TreeExtent> restored_extents(extents.begin(), extents.end());
   std::uint64_t restored_words = 0;
   for (TreeExtent& e : restored_extents) {
@@ -410,11 +411,11 @@ TreeSetView QtFile::restore_elided_trees(const PackedShape& shape,
     if (e.texel_start <= e.node_count && e.node_count <= largest_tree)
       restored_words += packed_node_offset(shape, e.texel_start, e.node_count);
   }
-  if (restored_words > std::min<std::uint64_t>(8 * std::uint64_t(words.size()), UINT32_MAX))
-    fail(name_, what + ": the trees' nodes restore to more words than the set can hold");
+  const std::uint64_t allocated =
+      std::min({restored_words, 8 * std::uint64_t(words.size()), std::uint64_t(UINT32_MAX)});
   std::vector<std::uint32_t> restored;
   try {
-    restored.resize(std::size_t(restored_words));
+    restored.resize(std::size_t(allocated));
   } catch (const std::bad_alloc&) {
     out_of_memory();
   }
@@ -422,7 +423,7 @@ TreeSetView QtFile::restore_elided_trees(const PackedShape& shape,
   // what refused it is reported below in the trees' order, as a reading in order meets it.
   struct Outcome {
     std::string extent_problem, tree_problem;
-    bool out_of_memory = false;
+    bool out_of_memory = false, does_not_fit = false;
     std::uint64_t words_read = 0;
   };
   std::vector<Outcome> outcomes(count);
@@ -434,7 +435,12 @@ TreeSetView QtFile::restore_elided_trees(const PackedShape& shape,
       const TreeExtent& e = extents[i];
       Outcome& out = outcomes[i];
       out.extent_problem = extent_problem(e, shape.exact_texels);
-      if (!out.extent_problem.empty() || e.first_word > words.size()) continue;
+      if (!out.extent_problem.empty()) continue;
+      if (e.first_word > words.size()) {
+        out.tree_problem = "starts at word " + std::to_string(e.first_word) + ", past the " +
+                           std::to_string(words.size()) + " the node data hold";
+        continue;
+      }
       if (e.node_count > largest_tree) {
         out.tree_problem = std::to_string(e.node_count) + " nodes, more than a tree of " +
                            std::to_string(shape.resolution) + "² holds";
@@ -453,8 +459,12 @@ TreeSetView QtFile::restore_elided_trees(const PackedShape& shape,
         out.out_of_memory = true;
         continue;
       }
-      std::copy(read.words.begin(), read.words.end(),
-                restored.begin() + std::ptrdiff_t(restored_extents[i].first_word));
+      const std::uint64_t place = restored_extents[i].first_word;
+      if (place + read.words.size() > allocated) {
+        out.does_not_fit = true;
+        continue;
+      }
+      std::copy(read.words.begin(), read.words.end(), restored.begin() + std::ptrdiff_t(place));
     }
   });
   std::uint64_t total = 0;
@@ -465,6 +475,9 @@ TreeSetView QtFile::restore_elided_trees(const PackedShape& shape,
     if (!out.tree_problem.empty())
       fail(name_, what + ": tree " + std::to_string(i) + ": " + out.tree_problem);
     if (out.out_of_memory) out_of_memory();
+    if (out.does_not_fit)
+      fail(name_, what + ": tree " + std::to_string(i) +
+                      ": the trees' nodes restore to more words than the set can hold");
     total += out.words_read;
   }
   if (words.size() != total)

@@ -783,6 +783,18 @@ TEST(QtFormat, TreesCheckedInParallelNameTheFirstRefused) {
     bad[12].first_word += 1;
     EXPECT_NE(load_error(file_of(bad, words, true)).find("tree extents are not contiguous"),
               std::string::npos);
+    // Node data cut after tree 3 and three words of tree 4: the extents restore to over 8 times
+    // the words the set holds, yet the first tree refused is named, not the set's size: tree 2,
+    // whose bounds do not fit its scale; without it, tree 4, whose words run out.
+    const std::vector<std::uint32_t> cut(words.begin(), words.begin() + extents[4].first_word + 3);
+    ASSERT_GT(std::uint64_t(kTrees) * tree.words.size(), 8 * cut.size());
+    bad = extents;
+    bad[2].scales.bound_scale *= 0x1p-12f;
+    EXPECT_NE(load_error(file_of(bad, cut, true)).find("tree 2: a derived bound exceeds"),
+              std::string::npos)
+        << threads;
+    EXPECT_NE(load_error(file_of(extents, cut, true)).find("tree 4: "), std::string::npos)
+        << threads;
     // In place (version 6 layout, every node whole): tree 33's broken link before tree 50's.
     std::vector<TreeExtent> whole_extents;
     std::vector<std::uint32_t> whole_words;
