@@ -182,6 +182,42 @@ TEST(Capture2qtCli, BadScenesAndImagesAreOneLineExitOne) {
   EXPECT_EQ(dir.entries(), expected);
 }
 
+// Image files go through a module the tools load on their first image, from the lib folder
+// beside their own: a tool copied without it runs as long as it reads no image; a file in the
+// module's place that is not the module is refused by name, in one line, and nothing is written.
+TEST(Capture2qtCli, TheImageModuleIsLoadedOnlyForImagesAndAForeignOneIsOneLineExitOne) {
+  TempDir dir;
+  std::filesystem::create_directories(dir.file("bin"));
+  std::filesystem::copy_file(testing::tool_directory() / "capture2qt", dir.file("bin/capture2qt"));
+  write_image(dir.file("sky.exr"), Image(16, 8, 3));
+  const std::vector<std::string> constant = {
+      "--env-constant", "1,1,1", "--at", "0,0,0", "--res", "8", "-o", "constant.qt", "-q"};
+  const auto without = run_tool(dir.file("bin/capture2qt"), constant, dir.path());
+  EXPECT_EQ(without.status, 0) << without.err;
+  EXPECT_TRUE(std::filesystem::exists(dir.file("constant.qt")));
+
+  std::filesystem::create_directories(dir.file("lib"));
+  std::ofstream(dir.file("lib/libbasis_image_codec.so")) << "not a shared library\n";
+  const auto foreign =
+      run_tool(dir.file("bin/capture2qt"),
+               {"--env", "sky.exr", "--at", "0,0,0", "--res", "8", "-o", "sky.qt"}, dir.path());
+  EXPECT_EQ(foreign.status, 1) << foreign.err;
+  EXPECT_EQ(testing::line_count(foreign.err), 1) << foreign.err;
+  EXPECT_NE(foreign.err.find("sky.exr: cannot load the image library: "), std::string::npos)
+      << foreign.err;
+  EXPECT_NE(foreign.err.find("lib/libbasis_image_codec.so"), std::string::npos) << foreign.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("sky.qt")));
+  // The build's own module in its place: the image is read.
+  std::filesystem::copy_file(testing::tool_directory() / ".." / "lib" / "libbasis_image_codec.so",
+                             dir.file("lib/libbasis_image_codec.so"),
+                             std::filesystem::copy_options::overwrite_existing);
+  const auto read = run_tool(
+      dir.file("bin/capture2qt"),
+      {"--env", "sky.exr", "--at", "0,0,0", "--res", "8", "-o", "sky.qt", "-q"}, dir.path());
+  EXPECT_EQ(read.status, 0) << read.err;
+  EXPECT_TRUE(std::filesystem::exists(dir.file("sky.qt")));
+}
+
 TEST(Capture2qtCli, BadUsageIsExitTwo) {
   TempDir dir;
   write_room(dir);

@@ -29,7 +29,13 @@ cat >phong.json <<'SPEC'
 {"model": "phong", "kd": 0.5, "ks": 0.4, "exponent": 40, "table": {"wo_res": 9, "wi_res": 16}}
 SPEC
 "$work/prefix/bin/brdf2qt" phong.json -o table.qt -q
-"$work/prefix/bin/capture2qt" --env-constant 0.2,0.5,1 --at 0,0,0 --res 16 -o captures.qt -q
+mkdir dumped
+"$work/prefix/bin/capture2qt" --env-constant 0.2,0.5,1 --at 0,0,0 --res 16 -o captures.qt -q \
+  --dump dumped
+# The installed tools write and read images through the installed image module (PREFIX/lib).
+test -f "$work/prefix/lib/libbasis_image_codec.so"
+"$work/prefix/bin/capture2qt" --image dumped/capture_00000.exr -o image.qt -q
+test -s image.qt
 "$work/consumer/consumer" table.qt captures.qt >cmake.txt
 "$work/pkg_consumer" table.qt captures.qt >pkg.txt
 "$work/prefix/bin/qtconvolve" table.qt captures.qt --csv | tail -n +2 | cut -d, -f1-4 | tr , ' ' >tool.txt

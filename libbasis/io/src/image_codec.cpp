@@ -1,0 +1,62 @@
+// The image codec module: image files through OpenImageIO (see image_codec.h).
+#include "image_codec.h"
+
+#include "basis/core/version.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+
+namespace basis::image_codec {
+namespace {
+
+// OpenImageIO's messages can span lines; tools print one.
+std::string one_line(std::string message) {
+  std::replace(message.begin(), message.end(), '\n', ' ');
+  while (!message.empty() && message.back() == ' ')
+    message.pop_back();
+  return message.empty() ? "unknown image error" : message;
+}
+
+std::string read(const std::string& path, long long max_pixels, int& width, int& height,
+                 int& channels, std::vector<float>& pixels) {
+  auto input = OIIO::ImageInput::open(path);
+  if (!input) return one_line(OIIO::geterror());
+  const OIIO::ImageSpec& spec = input->spec();
+  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0) return "image has no pixels";
+  if (static_cast<long long>(spec.width) * spec.height > max_pixels)
+    return "image of " + std::to_string(spec.width) + " x " + std::to_string(spec.height) +
+           " pixels exceeds the limit of " + std::to_string(max_pixels) + " pixels";
+  width = spec.width;
+  height = spec.height;
+  channels = spec.nchannels;
+  pixels.assign(std::size_t(width) * std::size_t(height) * std::size_t(channels), 0.0f);
+  if (!input->read_image(0, 0, 0, channels, OIIO::TypeDesc::FLOAT, pixels.data()))
+    return one_line(input->geterror());
+  input->close();
+  return {};
+}
+
+std::string write(const std::string& path, const std::string& temp_path, int width, int height,
+                  int channels, const float* pixels) {
+  auto output = OIIO::ImageOutput::create(path);
+  if (!output) return one_line(OIIO::geterror());
+  const std::string format = output->format_name();
+  const bool is_float = format == "openexr" || format == "hdr";
+  const OIIO::ImageSpec spec(width, height, channels,
+                             is_float ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::UINT8);
+  if (!output->open(temp_path, spec) || !output->write_image(OIIO::TypeDesc::FLOAT, pixels) ||
+      !output->close())
+    return one_line(output->geterror());
+  return {};
+}
+
+constexpr Functions kFunctions{kAbiVersion, kVersion, read, write};
+
+}  // namespace
+}  // namespace basis::image_codec
+
+extern "C" __attribute__((visibility("default"))) const basis::image_codec::Functions*
+basis_image_codec_functions() {
+  return &basis::image_codec::kFunctions;
+}

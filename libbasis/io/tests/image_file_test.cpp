@@ -1,0 +1,51 @@
+// Image files: the image library is loaded on the first image written or read, not when the
+// program starts; what is written reads back (floats exactly in EXR, 8 bits clamped in PNG).
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <iterator>
+
+#include "basis/io/image_file.h"
+#include "support/temp_dir.h"
+
+namespace basis {
+namespace {
+
+bool image_library_loaded() {
+  std::ifstream maps("/proc/self/maps");
+  const std::string text((std::istreambuf_iterator<char>(maps)), std::istreambuf_iterator<char>());
+  return text.find("libOpenImageIO") != std::string::npos;
+}
+
+TEST(ImageFile, TheImageLibraryLoadsOnTheFirstImageAndWhatIsWrittenReadsBack) {
+  EXPECT_FALSE(image_library_loaded());
+  testing::TempDir dir;
+  Image image(3, 2, 3);
+  for (std::size_t i = 0; i < image.pixels.size(); ++i)
+    image.pixels[i] = float(i) * 0.0625f + (i == 4 ? 1e5f : 0.0f);
+  write_image(dir.file("small.exr"), image);
+  EXPECT_TRUE(image_library_loaded());
+  const Image exr = read_image(dir.file("small.exr"));
+  ASSERT_EQ(exr.width, 3);
+  ASSERT_EQ(exr.height, 2);
+  ASSERT_EQ(exr.channels, 3);
+  EXPECT_EQ(exr.pixels, image.pixels);
+
+  write_image(dir.file("small.png"), image);
+  const Image png = read_image(dir.file("small.png"));
+  ASSERT_EQ(png.pixels.size(), image.pixels.size());
+  for (std::size_t i = 0; i < image.pixels.size(); ++i)
+    EXPECT_NEAR(png.pixels[i], std::min(image.pixels[i], 1.0f), 0.501f / 255) << i;
+
+  try {
+    read_image(dir.file("missing.exr"));
+    ADD_FAILURE() << "a missing image was read";
+  } catch (const FileError& error) {
+    EXPECT_EQ(std::string(error.what()).rfind(dir.file("missing.exr") + ": ", 0), 0u)
+        << error.what();
+  }
+  EXPECT_EQ(dir.entries(), (std::vector<std::string>{"small.exr", "small.png"}));
+}
+
+}  // namespace
+}  // namespace basis
