@@ -78,7 +78,7 @@ class QtFile {
   // Whether the trees are used where they lie in the file (versions 3 to 6, and version 7's sets
   // without derived values) or were packed or restored on loading (versions 1 and 2, and
   // version 7's sets of shared-exponent values).
-  bool zero_copy() const { return converted_.empty(); }
+  bool zero_copy() const { return converted_.empty() && restored_words_.empty(); }
   // The table of a kind-brdf_table file; throws FileError for other kinds.
   BrdfTableView brdf_table() const;
   std::string brdf_model() const;
@@ -100,11 +100,6 @@ class QtFile {
   // The elided layout's trees restored (in parallel) into converted_, each checked as it is read.
   TreeSetView restore_elided_trees(const PackedShape& shape, std::span<const TreeExtent> extents,
                                    std::span<const std::uint32_t> words, const std::string& what);
-  // extent_problem says what is wrong with an extent ("" if nothing).
-  TreeSetView restore_elided_trees(
-      const PackedShape& shape, std::span<const TreeExtent> extents,
-      std::span<const std::uint32_t> words, const std::string& what,
-      const std::function<std::string(const TreeExtent&)>& extent_problem);
   // Versions 1 and 2: float trees, checked and packed into converted_.
   TreeSetView verify_and_pack_float_trees(const void* set, const std::string& what,
                                           const QuadtreeShape& shape);
@@ -136,7 +131,13 @@ class QtFile {
   ProjectionOptions projection_;
   TreeSetView trees_;
   TreeSetView tilt_;
-  std::vector<TreeSet> converted_;                          // trees of versions 1 and 2, packed
+  std::vector<TreeSet> converted_;  // trees of versions 1 and 2, packed
+  // Words restored from version 7 sets: memory left uninitialised until the trees are written
+  // into it, asked for on huge pages (see restore_elided_trees).
+  struct FreeWords {
+    void operator()(std::uint32_t* words) const noexcept;
+  };
+  std::vector<std::unique_ptr<std::uint32_t[], FreeWords>> restored_words_;
   std::vector<std::vector<TreeExtent>> converted_extents_;  // extents of versions 3 and 4
   int wo_resolution_ = 0;
   CaptureSetView captures_;
