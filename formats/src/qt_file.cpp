@@ -393,7 +393,10 @@ TreeSetView QtFile::verify_tree_set(const void* set_pointer, const std::string& 
 }
 
 void QtFile::FreeWords::operator()(std::uint32_t* words) const noexcept {
-  std::free(words);
+  if (mapped_bytes > 0)
+    ::munmap(words, mapped_bytes);
+  else
+    std::free(words);
 }
 
 TreeSetView QtFile::restore_elided_trees(const PackedShape& shape,
@@ -419,18 +422,23 @@ TreeSetView QtFile::restore_elided_trees(const PackedShape& shape,
   const std::uint64_t allocated =
       std::min({restored_words, 8 * std::uint64_t(words.size()), std::uint64_t(UINT32_MAX)});
   // Not zero-filled: every word is written before the set is used, by the tree it belongs to, so
-  // that the pages are first touched in parallel; on huge pages where the kernel grants them
-  // (transparent huge pages on request), so that the restoring faults once per 2 MiB, not 4 KiB.
+  // that the pages are first touched in parallel. From 2 MiB on, a mapping of its own asked for
+  // on huge pages (transparent huge pages on request), so that the restoring faults once per 2
+  // MiB, not 4 KiB, and gives the memory back when the file is closed.
   constexpr std::size_t kHugePage = std::size_t(2) << 20;
-  const std::size_t allocated_bytes =
+  const std::size_t bytes =
       std::max<std::size_t>(std::size_t(allocated) * sizeof(std::uint32_t), 1);
-  const bool huge = allocated_bytes >= kHugePage;
-  const std::size_t rounded_bytes =
-      huge ? (allocated_bytes + kHugePage - 1) / kHugePage * kHugePage : allocated_bytes;
-  std::unique_ptr<std::uint32_t[], FreeWords> memory(static_cast<std::uint32_t*>(
-      huge ? std::aligned_alloc(kHugePage, rounded_bytes) : std::malloc(rounded_bytes)));
-  if (!memory) out_of_memory();
-  if (huge) ::madvise(memory.get(), rounded_bytes, MADV_HUGEPAGE);  // a request; may be refused
+  std::unique_ptr<std::uint32_t[], FreeWords> memory;
+  if (bytes >= kHugePage) {
+    void* mapped =
+        ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (mapped == MAP_FAILED) out_of_memory();
+    memory = {static_cast<std::uint32_t*>(mapped), FreeWords{bytes}};
+    ::madvise(mapped, bytes, MADV_HUGEPAGE);  // a request; may be refused
+  } else {
+    memory.reset(static_cast<std::uint32_t*>(std::malloc(bytes)));
+    if (!memory) out_of_memory();
+  }
   const std::span<std::uint32_t> restored(memory.get(), std::size_t(allocated));
   // Each tree read from its first word on, checked and restored into its place, in parallel;
   // what refused it is reported below in the trees' order, as a reading in order meets it.
@@ -472,6 +480,9 @@ TreeSetView QtFile::restore_elided_trees(const PackedShape& shape,
         out.out_of_memory = true;
         continue;
       }
+      // A tree read whole fits: a left-out node's link word restores to a full node of 8
+      // words, every other word to itself. Only trees after one refused (whose places were
+      // counted from their extents), or a set of over 2^32 words, reach past the allocation.
       const std::uint64_t place = restored_extents[i].first_word;
       if (place + read.words.size() > allocated) {
         out.does_not_fit = true;

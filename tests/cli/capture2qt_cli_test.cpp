@@ -184,8 +184,10 @@ TEST(Capture2qtCli, BadScenesAndImagesAreOneLineExitOne) {
 
 // Image files go through a module the tools load on their first image, from the lib folder
 // beside their own: a tool copied without it runs as long as it reads no image; a file in the
-// module's place that is not the module is refused by name, in one line, and nothing is written.
-TEST(Capture2qtCli, TheImageModuleIsLoadedOnlyForImagesAndAForeignOneIsOneLineExitOne) {
+// module's place that is not the module is refused by name, in one line, and nothing is written
+// (on a machine where no libbasis is installed in the configured prefix or the library path,
+// where the tool would look next).
+TEST(Capture2qtCli, TheImageModuleIsLoadedOnlyForImagesAndAMissingOrForeignOneIsOneLineExitOne) {
   TempDir dir;
   std::filesystem::create_directories(dir.file("bin"));
   std::filesystem::copy_file(testing::tool_directory() / "capture2qt", dir.file("bin/capture2qt"));
@@ -195,6 +197,17 @@ TEST(Capture2qtCli, TheImageModuleIsLoadedOnlyForImagesAndAForeignOneIsOneLineEx
   const auto without = run_tool(dir.file("bin/capture2qt"), constant, dir.path());
   EXPECT_EQ(without.status, 0) << without.err;
   EXPECT_TRUE(std::filesystem::exists(dir.file("constant.qt")));
+
+  const auto missing =
+      run_tool(dir.file("bin/capture2qt"),
+               {"--env", "sky.exr", "--at", "0,0,0", "--res", "8", "-o", "sky.qt"}, dir.path());
+  EXPECT_EQ(missing.status, 1) << missing.err;
+  EXPECT_EQ(testing::line_count(missing.err), 1) << missing.err;
+  EXPECT_NE(missing.err.find("sky.exr: cannot load the image library: libbasis_image_codec.so "
+                             "not found in " +
+                             dir.file("lib")),
+            std::string::npos)
+      << missing.err;
 
   std::filesystem::create_directories(dir.file("lib"));
   std::ofstream(dir.file("lib/libbasis_image_codec.so")) << "not a shared library\n";

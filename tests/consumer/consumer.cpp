@@ -1,17 +1,25 @@
 // Loads a .qt BRDF table and a capture set and prints the reflected radiance at every capture
-// towards the normal, one line per capture: what a renderer linking libbasis would do.
+// towards the normal, one line per capture: what a renderer linking libbasis would do. With
+// --image FILE, reads an image instead and prints its width, height and channels.
 #include <cstdio>
 #include <exception>
+#include <string>
 
 #include "basis/format/qt_file.h"
+#include "basis/io/image_file.h"
 #include "basis/lighting/shading.h"
 
 int main(int argc, char** argv) {
   if (argc != 3) {
-    std::fprintf(stderr, "usage: consumer TABLE.qt CAPTURES.qt\n");
+    std::fprintf(stderr, "usage: consumer TABLE.qt CAPTURES.qt | consumer --image FILE\n");
     return 2;
   }
   try {
+    if (std::string(argv[1]) == "--image") {
+      const basis::Image image = basis::read_image(argv[2]);
+      std::printf("%d %d %d\n", image.width, image.height, image.channels);
+      return 0;
+    }
     const basis::QtFile table = basis::QtFile::load(argv[1]);
     const basis::QtFile captures = basis::QtFile::load(argv[2]);
     basis::ShadingOptions options;

@@ -36,6 +36,10 @@ mkdir dumped
 test -f "$work/prefix/lib/libbasis_image_codec.so"
 "$work/prefix/bin/capture2qt" --image dumped/capture_00000.exr -o image.qt -q
 test -s image.qt
+# A program built elsewhere finds the module of a package installed away from its configured
+# prefix (as here) on its library path.
+test "$(LD_LIBRARY_PATH="$work/prefix/lib" "$work/consumer/consumer" --image dumped/capture_00000.exr)" = "16 16 3"
+test "$(LD_LIBRARY_PATH="$work/prefix/lib" "$work/pkg_consumer" --image dumped/capture_00000.exr)" = "16 16 3"
 "$work/consumer/consumer" table.qt captures.qt >cmake.txt
 "$work/pkg_consumer" table.qt captures.qt >pkg.txt
 "$work/prefix/bin/qtconvolve" table.qt captures.qt --csv | tail -n +2 | cut -d, -f1-4 | tr , ' ' >tool.txt

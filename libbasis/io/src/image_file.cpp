@@ -8,7 +8,10 @@
 #include <dlfcn.h>
 #include <link.h>
 
+#include <algorithm>
 #include <filesystem>
+#include <mutex>
+#include <vector>
 
 namespace basis {
 namespace {
@@ -18,38 +21,61 @@ struct LoadedCodec {
   std::string problem;  // why it could not be loaded
 };
 
-// The program, or the shared object (the Python module), that this code is linked into.
-std::filesystem::path linked_into() {
+// The file of the program, or of the shared object (the Python module), that this code is
+// linked into; empty if it cannot be told.
+struct LinkedInto {
+  std::filesystem::path file;
+  bool shared_object = false;
+};
+
+LinkedInto linked_into() {
   Dl_info info{};
   link_map* map = nullptr;
   if (dladdr1(reinterpret_cast<void*>(&linked_into), &info, reinterpret_cast<void**>(&map),
               RTLD_DL_LINKMAP) != 0 &&
       map && map->l_name && map->l_name[0] != '\0')
-    return map->l_name;
+    return {map->l_name, true};
   std::error_code error;
-  return std::filesystem::read_symlink("/proc/self/exe", error);  // the program itself
+  return {std::filesystem::read_symlink("/proc/self/exe", error), false};  // the program
 }
 
-// The module is looked for in the lib folders beside the program's folder (build/bin and
-// build/lib, PREFIX/bin and PREFIX/lib), beside the Python module's folder's parent (installed
-// in LIBDIR/python3/dist-packages), then where the package is configured to install it; the
-// first file found is the one loaded.
+// Where the module is looked for, in order: the lib folders beside the program's folder
+// (build/bin and build/lib, PREFIX/bin and PREFIX/lib or LIBDIR), beside the Python module's
+// folder's parent (installed in LIBDIR/python3/dist-packages), where the package is configured
+// to install it, and last by name alone (LD_LIBRARY_PATH, the system's library folders).
+std::vector<std::string> module_candidates() {
+  std::vector<std::string> files;
+  const LinkedInto linked = linked_into();
+  if (linked.file.is_absolute()) {
+    const std::filesystem::path beside = linked.file.parent_path();
+    std::vector<std::filesystem::path> folders = {beside / ".." / "lib",
+                                                  beside / ".." / image_codec::kLibraryFolder};
+    if (linked.shared_object) folders.push_back(beside / ".." / "..");
+    for (const std::filesystem::path& folder : folders)
+      files.push_back((folder / image_codec::kModuleName).lexically_normal().string());
+  }
+  files.push_back(image_codec::kInstalledModule);
+  files.erase(std::unique(files.begin(), files.end()), files.end());
+  return files;
+}
+
+std::string dlopen_problem(const std::string& file) {
+  const char* why = dlerror();
+  const std::string message = why ? why : "cannot be loaded";
+  return message.rfind(file, 0) == 0 ? message : file + ": " + message;
+}
+
+// The first candidate that loads and is this version's module. A file that fails (another
+// version, not a shared object, a library it needs missing) is passed over, and named if no
+// candidate loads. A module is never unloaded: the image library it loads stays in use.
 LoadedCodec load_codec() {
-  const std::filesystem::path beside = linked_into().parent_path();
-  const std::filesystem::path candidates[] = {
-      beside / ".." / "lib" / image_codec::kModuleName,
-      beside / ".." / image_codec::kLibraryFolder / image_codec::kModuleName,
-      beside / ".." / ".." / image_codec::kModuleName, image_codec::kInstalledModule};
   LoadedCodec loaded;
-  for (const std::filesystem::path& candidate : candidates) {
-    std::error_code error;
-    if (!std::filesystem::is_regular_file(candidate, error)) continue;
-    const std::string file = candidate.lexically_normal().string();
+  const std::vector<std::string> candidates = module_candidates();
+  auto try_module = [&](const std::string& file, bool by_name) {
     void* module = dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL);
     if (!module) {
-      const char* why = dlerror();
-      loaded.problem = why ? why : file + ": cannot be loaded";
-      return loaded;
+      if (!by_name && loaded.problem.empty()) loaded.problem = dlopen_problem(file);
+      return false;
     }
     using Entry = const image_codec::Functions* (*)();
     const auto entry = reinterpret_cast<Entry>(dlsym(module, image_codec::kEntryPoint));
@@ -57,24 +83,39 @@ LoadedCodec load_codec() {
     if (functions && functions->abi_version == image_codec::kAbiVersion &&
         std::string(functions->project_version) == kVersion) {
       loaded.functions = functions;
-      return loaded;
+      return true;
     }
-    dlclose(module);
-    loaded.problem = file + " is not the image module of libbasis " + kVersion;
-    return loaded;
+    if (loaded.problem.empty())
+      loaded.problem = file + " is not the image module of libbasis " + kVersion;
+    return false;
+  };
+  for (const std::string& file : candidates) {
+    std::error_code error;
+    if (std::filesystem::is_regular_file(file, error) && try_module(file, false)) return loaded;
   }
-  loaded.problem = std::string(image_codec::kModuleName) + " is in none of " +
-                   (beside / ".." / "lib").lexically_normal().string() + ", " +
-                   image_codec::kInstalledModule;
+  if (try_module(image_codec::kModuleName, true)) return loaded;
+  if (loaded.problem.empty()) {
+    loaded.problem = std::string(image_codec::kModuleName) + " not found in ";
+    for (const std::string& file : candidates)
+      loaded.problem += std::filesystem::path(file).parent_path().string() + ", ";
+    loaded.problem += "or on the library path";
+  }
   return loaded;
 }
 
-// The codec module, loaded on the first image read or written and kept for the process.
+// The codec module, loaded on the first image read or written and kept for the process; a
+// module that could not be loaded is looked for again at the next image.
 const image_codec::Functions& codec(const std::string& path) {
-  static const LoadedCodec loaded = load_codec();
-  if (!loaded.functions)
-    throw FileError(path + ": cannot load the image library: " + loaded.problem);
-  return *loaded.functions;
+  static std::mutex mutex;
+  static const image_codec::Functions* functions = nullptr;
+  const std::lock_guard lock(mutex);
+  if (!functions) {
+    const LoadedCodec loaded = load_codec();
+    if (!loaded.functions)
+      throw FileError(path + ": cannot load the image library: " + loaded.problem);
+    functions = loaded.functions;
+  }
+  return *functions;
 }
 
 }  // namespace

@@ -94,10 +94,11 @@ class QtFile {
   TreeSetView verify_tree_set(const void* set, const std::string& what,
                               ProjectionOptions* projection);
   // Versions 3 to 7: packed trees, checked where they lie (the extents of versions 3 and 4
-  // converted), or restored into converted_ when their derived values were left out.
+  // converted), or restored into restored_words_ when their derived values were left out.
   TreeSetView verify_packed_trees(const void* set, const std::string& what,
                                   const QuadtreeShape& shape);
-  // The elided layout's trees restored (in parallel) into converted_, each checked as it is read.
+  // The elided layout's trees restored (in parallel) into restored_words_, each checked as it is
+  // read.
   TreeSetView restore_elided_trees(const PackedShape& shape, std::span<const TreeExtent> extents,
                                    std::span<const std::uint32_t> words, const std::string& what);
   // Versions 1 and 2: float trees, checked and packed into converted_.
@@ -133,12 +134,14 @@ class QtFile {
   TreeSetView tilt_;
   std::vector<TreeSet> converted_;  // trees of versions 1 and 2, packed
   // Words restored from version 7 sets: memory left uninitialised until the trees are written
-  // into it, asked for on huge pages (see restore_elided_trees).
+  // into it; from 2 MiB on, a mapping of its own asked for on huge pages (restore_elided_trees).
   struct FreeWords {
+    std::size_t mapped_bytes = 0;  // nonzero for a mapping
     void operator()(std::uint32_t* words) const noexcept;
   };
   std::vector<std::unique_ptr<std::uint32_t[], FreeWords>> restored_words_;
-  std::vector<std::vector<TreeExtent>> converted_extents_;  // extents of versions 3 and 4
+  // Extents of versions 3 and 4, converted, and of version 7's restored sets.
+  std::vector<std::vector<TreeExtent>> converted_extents_;
   int wo_resolution_ = 0;
   CaptureSetView captures_;
 };
