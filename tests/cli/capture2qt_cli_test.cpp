@@ -198,9 +198,9 @@ TEST(Capture2qtCli, TheImageModuleIsLoadedOnlyForImagesAndAMissingOrForeignOneIs
   EXPECT_EQ(without.status, 0) << without.err;
   EXPECT_TRUE(std::filesystem::exists(dir.file("constant.qt")));
 
-  const auto missing =
-      run_tool(dir.file("bin/capture2qt"),
-               {"--env", "sky.exr", "--at", "0,0,0", "--res", "8", "-o", "sky.qt"}, dir.path());
+  const std::vector<std::string> from_sky = {"--env", "sky.exr", "--at",   "0,0,0", "--res",
+                                             "8",     "-o",      "sky.qt", "-q"};
+  const auto missing = run_tool(dir.file("bin/capture2qt"), from_sky, dir.path());
   EXPECT_EQ(missing.status, 1) << missing.err;
   EXPECT_EQ(testing::line_count(missing.err), 1) << missing.err;
   EXPECT_NE(missing.err.find("sky.exr: cannot load the image library: libbasis_image_codec.so "
@@ -211,9 +211,7 @@ TEST(Capture2qtCli, TheImageModuleIsLoadedOnlyForImagesAndAMissingOrForeignOneIs
 
   std::filesystem::create_directories(dir.file("lib"));
   std::ofstream(dir.file("lib/libbasis_image_codec.so")) << "not a shared library\n";
-  const auto foreign =
-      run_tool(dir.file("bin/capture2qt"),
-               {"--env", "sky.exr", "--at", "0,0,0", "--res", "8", "-o", "sky.qt"}, dir.path());
+  const auto foreign = run_tool(dir.file("bin/capture2qt"), from_sky, dir.path());
   EXPECT_EQ(foreign.status, 1) << foreign.err;
   EXPECT_EQ(testing::line_count(foreign.err), 1) << foreign.err;
   EXPECT_NE(foreign.err.find("sky.exr: cannot load the image library: "), std::string::npos)
@@ -224,9 +222,7 @@ TEST(Capture2qtCli, TheImageModuleIsLoadedOnlyForImagesAndAMissingOrForeignOneIs
   std::filesystem::copy_file(testing::tool_directory() / ".." / "lib" / "libbasis_image_codec.so",
                              dir.file("lib/libbasis_image_codec.so"),
                              std::filesystem::copy_options::overwrite_existing);
-  const auto read = run_tool(
-      dir.file("bin/capture2qt"),
-      {"--env", "sky.exr", "--at", "0,0,0", "--res", "8", "-o", "sky.qt", "-q"}, dir.path());
+  const auto read = run_tool(dir.file("bin/capture2qt"), from_sky, dir.path());
   EXPECT_EQ(read.status, 0) << read.err;
   EXPECT_TRUE(std::filesystem::exists(dir.file("sky.qt")));
 }

@@ -39,61 +39,62 @@ LinkedInto linked_into() {
   return {std::filesystem::read_symlink("/proc/self/exe", error), false};  // the program
 }
 
-// Where the module is looked for, in order: the lib folders beside the program's folder
-// (build/bin and build/lib, PREFIX/bin and PREFIX/lib or LIBDIR), beside the Python module's
-// folder's parent (installed in LIBDIR/python3/dist-packages), where the package is configured
-// to install it, and last by name alone (LD_LIBRARY_PATH, the system's library folders).
+// The files the module is looked for in, in order: in the lib folders beside the program's
+// folder (build/bin and build/lib, PREFIX/bin and PREFIX/lib or LIBDIR), beside the Python
+// module's folder's parent (installed in LIBDIR/python3/dist-packages), and where the package is
+// configured to install it.
 std::vector<std::string> module_candidates() {
-  std::vector<std::string> files;
+  std::vector<std::filesystem::path> folders;
   const LinkedInto linked = linked_into();
   if (linked.file.is_absolute()) {
     const std::filesystem::path beside = linked.file.parent_path();
-    std::vector<std::filesystem::path> folders = {beside / ".." / "lib",
-                                                  beside / ".." / image_codec::kLibraryFolder};
+    folders = {beside / ".." / "lib", beside / ".." / image_codec::kLibraryFolder};
     if (linked.shared_object) folders.push_back(beside / ".." / "..");
-    for (const std::filesystem::path& folder : folders)
-      files.push_back((folder / image_codec::kModuleName).lexically_normal().string());
   }
-  files.push_back(image_codec::kInstalledModule);
+  folders.push_back(image_codec::kInstalledFolder);
+  std::vector<std::string> files;
+  for (const std::filesystem::path& folder : folders)
+    files.push_back((folder / image_codec::kModuleName).lexically_normal().string());
   files.erase(std::unique(files.begin(), files.end()), files.end());
   return files;
 }
 
-std::string dlopen_problem(const std::string& file) {
-  const char* why = dlerror();
-  const std::string message = why ? why : "cannot be loaded";
-  return message.rfind(file, 0) == 0 ? message : file + ": " + message;
+// The module in `file` (a path, or a name the library path resolves), if it loads and is this
+// version's; otherwise null, and `problem` says why. A module is never unloaded: the image
+// library it loads stays in use.
+const image_codec::Functions* open_module(const std::string& file, std::string& problem) {
+  void* module = dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (!module) {
+    const char* why = dlerror();
+    const std::string message = why ? why : "cannot be loaded";
+    problem = message.rfind(file, 0) == 0 ? message : file + ": " + message;
+    return nullptr;
+  }
+  using Entry = const image_codec::Functions* (*)();
+  const auto entry = reinterpret_cast<Entry>(dlsym(module, image_codec::kEntryPoint));
+  const image_codec::Functions* functions = entry ? entry() : nullptr;
+  if (functions && functions->abi_version == image_codec::kAbiVersion &&
+      std::string(functions->project_version) == kVersion)
+    return functions;
+  problem = file + " is not the image module of libbasis " + kVersion;
+  return nullptr;
 }
 
-// The first candidate that loads and is this version's module. A file that fails (another
-// version, not a shared object, a library it needs missing) is passed over, and named if no
-// candidate loads. A module is never unloaded: the image library it loads stays in use.
+// The first candidate that loads and is this version's module, else by name on the library
+// path. A file that fails (another version, not a shared object, a library it needs missing) is
+// passed over, and named if none loads.
 LoadedCodec load_codec() {
-  LoadedCodec loaded;
   const std::vector<std::string> candidates = module_candidates();
-  auto try_module = [&](const std::string& file, bool by_name) {
-    void* module = dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL);
-    if (!module) {
-      if (!by_name && loaded.problem.empty()) loaded.problem = dlopen_problem(file);
-      return false;
-    }
-    using Entry = const image_codec::Functions* (*)();
-    const auto entry = reinterpret_cast<Entry>(dlsym(module, image_codec::kEntryPoint));
-    const image_codec::Functions* functions = entry ? entry() : nullptr;
-    if (functions && functions->abi_version == image_codec::kAbiVersion &&
-        std::string(functions->project_version) == kVersion) {
-      loaded.functions = functions;
-      return true;
-    }
-    if (loaded.problem.empty())
-      loaded.problem = file + " is not the image module of libbasis " + kVersion;
-    return false;
-  };
+  LoadedCodec loaded;
   for (const std::string& file : candidates) {
     std::error_code error;
-    if (std::filesystem::is_regular_file(file, error) && try_module(file, false)) return loaded;
+    if (!std::filesystem::is_regular_file(file, error)) continue;
+    std::string problem;
+    if ((loaded.functions = open_module(file, problem))) return loaded;
+    if (loaded.problem.empty()) loaded.problem = problem;
   }
-  if (try_module(image_codec::kModuleName, true)) return loaded;
+  std::string not_on_the_path;
+  if ((loaded.functions = open_module(image_codec::kModuleName, not_on_the_path))) return loaded;
   if (loaded.problem.empty()) {
     loaded.problem = std::string(image_codec::kModuleName) + " not found in ";
     for (const std::string& file : candidates)
