@@ -76,6 +76,22 @@ BENCHMARK(BM_DenseLookups)
     ->ArgsProduct({{0, 1}, {0, 1}})
     ->Unit(benchmark::kMillisecond);
 
+// Finding and folding the entries around one wo, what a batch of lookups at that wo pays once:
+// arguments table (0 Phong, 1 GGX) and direction (0: 30 degrees off the normal on a row of the
+// grid, two entries; 1: off the rows, four entries).
+void BM_FoldEntries(benchmark::State& state) {
+  const BrdfTableView table = main_job_file(state.range(0) == 0 ? "phong" : "ggx").brdf_table();
+  const Vec3 wo =
+      state.range(1) == 0 ? Vec3(0.5, 0, 0.866).normalized() : Vec3(0.3, 0.2, 0.93).normalized();
+  for (auto _ : state)
+    benchmark::DoNotOptimize(entries_at(table, wo, WoInterpolation::hermite));
+}
+BENCHMARK(BM_FoldEntries)
+    ->Name("lookup/fold")
+    ->ArgNames({"ggx", "off_rows"})
+    ->ArgsProduct({{0, 1}, {0, 1}})
+    ->Unit(benchmark::kMicrosecond);
+
 // Lookups between entries (wo 21 degrees off the normal, off every grid line): arguments table
 // (0 Phong, 1 GGX) and method (0: the first version's table, bilinear; 1: the default table,
 // bilinear; 2: the default table, Hermite).

@@ -63,28 +63,43 @@ struct WeightedNode {
   __m128 value[3], magnitude[3], bound[3];
 };
 
+// A term with its weights in the units of its tree's values and bound codes.
+struct ScaledTerm {
+  PackedTreeView tree;
+  int groups = 1, channels = 1;
+  std::array<float, 3> value_weight{}, bound_weight{};
+};
+
+ScaledTerm scaled(const WeightedTerm& term) {
+  ScaledTerm out{term.tree, term.groups, term.tree.shape().channels, {}, {}};
+  for (int g = 0; g < term.groups; ++g) {
+    const float w = term.weights[std::size_t(g)];
+    out.value_weight[std::size_t(g)] = w * term.tree.scales().value_scale;
+    out.bound_weight[std::size_t(g)] = std::abs(w) * term.tree.scales().bound_scale;
+  }
+  return out;
+}
+
 __m128 abs_lanes(__m128 x) {
   return _mm_andnot_ps(_mm_set1_ps(-0.0f), x);
 }
 
-WeightedNode read_node(const WeightedTerm& term, int n, int channels) {
-  const PackedTreeView& t = term.tree;
-  const int tree_channels = t.shape().channels;
-  const std::uint32_t* words = t.node(n);
-  const std::uint32_t* codes = words + 1 + t.shape().value_words();
-  WeightedNode out;
+// Node n of a term's tree, weighted, into `out` (written in place: a node built elsewhere and
+// copied would be read back, wide, from the narrower stores that made it).
+void read_node(const ScaledTerm& term, int n, int channels, WeightedNode& out) {
+  const std::uint32_t* words = term.tree.node(n);
+  const std::uint32_t* codes = words + 1 + term.tree.shape().value_words();
   out.link = words[0];
   for (int c = 0; c < 3; ++c)
     out.value[c] = out.magnitude[c] = out.bound[c] = _mm_setzero_ps();
   for (int c = 0; c < channels; ++c) {
-    const int tc = tree_channels == 1 ? 0 : c;
+    const int tc = term.channels == 1 ? 0 : c;
     __m128 value = _mm_setzero_ps(), magnitude = _mm_setzero_ps(), bound = _mm_setzero_ps();
     for (int g = 0; g < term.groups; ++g) {
-      const float w = term.weights[std::size_t(g)];
-      const int at = g * tree_channels + tc;
+      const int at = g * term.channels + tc;
       const __m128 v = _mm_mul_ps(
           _mm_cvtph_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(words + 1 + 2 * at))),
-          _mm_set1_ps(w * t.scales().value_scale));
+          _mm_set1_ps(term.value_weight[std::size_t(g)]));
       value = _mm_add_ps(value, v);
       magnitude = _mm_add_ps(magnitude, abs_lanes(v));
       // Bound code values (packed_tree.h): their float bits are (code << 20) + kBoundCodeBias.
@@ -92,13 +107,12 @@ WeightedNode read_node(const WeightedTerm& term, int n, int channels) {
           _mm_add_epi32(_mm_slli_epi32(_mm_cvtepu8_epi32(_mm_cvtsi32_si128(int(codes[at]))), 20),
                         _mm_set1_epi32(int(kBoundCodeBias)));
       bound = _mm_add_ps(bound, _mm_mul_ps(_mm_castsi128_ps(code_bits),
-                                           _mm_set1_ps(std::abs(w) * t.scales().bound_scale)));
+                                           _mm_set1_ps(term.bound_weight[std::size_t(g)])));
     }
     out.value[c] = value;
     out.magnitude[c] = magnitude;
     out.bound[c] = bound;
   }
-  return out;
 }
 
 // Lanes of the quadrants whose bit is clear in a 4-bit mask.
@@ -135,22 +149,28 @@ std::uint32_t bound_codes_at_least(__m128 bound, float bound_scale) {
 }
 
 // The fold's nodes, breadth first with the children of a node consecutive (as packed trees lie).
-std::vector<FoldedNode> fold_nodes(std::span<const WeightedTerm> terms, int channels) {
+std::vector<FoldedNode> fold_nodes(std::span<const WeightedTerm> weighted, int channels) {
+  std::array<ScaledTerm, kMaxFoldedTerms> terms;
+  const std::size_t count = weighted.size();
+  std::size_t estimate = 0;
+  for (std::size_t t = 0; t < count; ++t) {
+    terms[t] = scaled(weighted[t]);
+    estimate = std::max(estimate, std::size_t(weighted[t].tree.node_count()));
+  }
   std::vector<FoldedNode> nodes;
   std::vector<TermStates> states;
-  std::size_t estimate = 0;
-  for (const WeightedTerm& t : terms)
-    estimate = std::max(estimate, std::size_t(t.tree.node_count()));
   // The union of the terms' nodes: a little more than the largest term's (1.07-1.26 times for
   // the main job's tables' entries around a wo).
   nodes.reserve(estimate + estimate / 4);
   states.reserve(estimate + estimate / 4);
   states.emplace_back();  // every term at its root
-  const std::size_t count = terms.size();
+  std::array<WeightedNode, kMaxFoldedTerms> term_nodes;
   for (std::size_t n = 0; n < states.size(); ++n) {
-    const TermStates here = states[n];
-    std::array<WeightedNode, kMaxFoldedTerms> term_nodes;
-    FoldedNode out;
+    // Room for this node's children first, so that `here` stays where it is while they are
+    // queued.
+    if (states.capacity() - states.size() < 4) states.reserve(2 * states.capacity());
+    const TermStates& here = states[n];
+    FoldedNode& out = nodes.emplace_back();
     std::uint32_t refined = 0;
     for (int c = 0; c < 3; ++c)
       out.value[c] = out.half_magnitude[c] = out.live[c] = out.stopped[c] = _mm_setzero_ps();
@@ -163,7 +183,8 @@ std::vector<FoldedNode> fold_nodes(std::span<const WeightedTerm> terms, int chan
         }
         continue;
       }
-      const WeightedNode& w = term_nodes[t] = read_node(terms[t], s.node, channels);
+      WeightedNode& w = term_nodes[t];
+      read_node(terms[t], s.node, channels, w);
       refined |= w.link & 15u;
       const __m128 stops = clear_lanes(w.link & 15u);
       for (int c = 0; c < channels; ++c) {
@@ -181,7 +202,7 @@ std::vector<FoldedNode> fold_nodes(std::span<const WeightedTerm> terms, int chan
     if (refined) out.link = std::uint32_t(states.size()) << 4 | refined;
     for (int q = 0; q < 4; ++q) {
       if (!(refined >> q & 1)) continue;
-      TermStates below = here;
+      TermStates& below = states.emplace_back(here);
       for (std::size_t t = 0; t < count; ++t) {
         if (here[t].node < 0) continue;
         const std::uint32_t link = term_nodes[t].link;
@@ -195,9 +216,7 @@ std::vector<FoldedNode> fold_nodes(std::span<const WeightedTerm> terms, int chan
           below[t].magnitude[c] = lane(term_nodes[t].magnitude[c], q);
         }
       }
-      states.push_back(below);
     }
-    nodes.push_back(out);
   }
   return nodes;
 }
