@@ -378,12 +378,14 @@ struct NarrowPairs {
         bound[c] = magnitude[c] = _mm_setzero_ps();
       }
     }
-    void add(const Sums& o) {
+    // Adds o times scale (a level's sums times its area, a power of two: exact).
+    void add(const Sums& o, float scale = 1) {
+      const __m128 s = _mm_set1_ps(scale);
       for (int c = 0; c < C; ++c) {
         for (int g = 0; g < GA; ++g)
-          value[g][c] = _mm_add_ps(value[g][c], o.value[g][c]);
-        bound[c] = _mm_add_ps(bound[c], o.bound[c]);
-        magnitude[c] = _mm_add_ps(magnitude[c], o.magnitude[c]);
+          value[g][c] = _mm_add_ps(value[g][c], _mm_mul_ps(o.value[g][c], s));
+        bound[c] = _mm_add_ps(bound[c], _mm_mul_ps(o.bound[c], s));
+        magnitude[c] = _mm_add_ps(magnitude[c], _mm_mul_ps(o.magnitude[c], s));
       }
     }
     float value_of(int g, int c) const { return lane_sum(value[g][c]); }
@@ -443,12 +445,12 @@ struct NarrowPairs {
                       _mm_set1_ps(0.5f));
   }
 
-  // Adds the pair's quadrants that stop (leaves, or within the accuracy target) and returns
-  // the internal quadrants that go on. kTexelA, kTexelB: the node of a, of b, is a texel node of
-  // exact texels, values alone.
+  // Adds the pair's quadrants that stop (leaves, or within the accuracy target), without their
+  // area (the level's, applied once per level), and returns the internal quadrants that go on.
+  // kTexelA, kTexelB: the node of a, of b, is a texel node of exact texels, values alone.
   template <bool kTexelA, bool kTexelB>
   static unsigned visit(const DescentConstants<CA, CB>& k, const std::uint32_t* wa,
-                        const std::uint32_t* wb, unsigned internal, float area, Sums& sums) {
+                        const std::uint32_t* wb, unsigned internal, Sums& sums) {
     const std::uint32_t* values_a = wa + (kTexelA ? 0 : 1);
     const std::uint32_t* values_b = wb + (kTexelB ? 0 : 1);
     // Shared-exponent values: a word per quadrant, the channels unpacked below.
@@ -523,9 +525,9 @@ struct NarrowPairs {
       }
       internal &= ~unsigned(_mm_movemask_ps(enough));
     }
-    const __m128 leaf_area = _mm_andnot_ps(lanes_of(internal), _mm_set1_ps(area));
+    const __m128 leaf_area = _mm_andnot_ps(lanes_of(internal), _mm_set1_ps(1.0f));
     if constexpr (kFolded) {
-      const __m128 internal_area = _mm_and_ps(lanes_of(internal), _mm_set1_ps(area));
+      const __m128 internal_area = _mm_and_ps(lanes_of(internal), _mm_set1_ps(1.0f));
       for (int c = 0; c < C; ++c)
         sums.bound[c] = _mm_add_ps(sums.bound[c], _mm_mul_ps(term_on[c], internal_area));
     }
@@ -590,11 +592,13 @@ struct WidePairs {
       for (int g = 0; g < GA; ++g)
         value[g] = _mm512_setzero_ps();
     }
-    void add(const Sums& o) {
+    // Adds o times scale (a level's sums times its area, a power of two: exact).
+    void add(const Sums& o, float scale = 1) {
+      const __m512 s = _mm512_set1_ps(scale);
       for (int g = 0; g < GA; ++g)
-        value[g] = _mm512_add_ps(value[g], o.value[g]);
-      bound = _mm512_add_ps(bound, o.bound);
-      magnitude = _mm512_add_ps(magnitude, o.magnitude);
+        value[g] = _mm512_fmadd_ps(o.value[g], s, value[g]);
+      bound = _mm512_fmadd_ps(o.bound, s, bound);
+      magnitude = _mm512_fmadd_ps(o.magnitude, s, magnitude);
     }
     static float lanes(__m512 v, int c) {
       alignas(64) float lane[16];
@@ -682,7 +686,7 @@ struct WidePairs {
 
   template <bool kTexelA, bool kTexelB>
   static unsigned visit(const DescentConstants<CA, CB>& k, const std::uint32_t* wa,
-                        const std::uint32_t* wb, unsigned internal, float area, Sums& sums) {
+                        const std::uint32_t* wb, unsigned internal, Sums& sums) {
     const std::uint32_t* values_a = wa + (kTexelA ? 0 : 1);
     Side a;
     __m512 stopping_bound = _mm512_setzero_ps(), half_magnitude = _mm512_setzero_ps();
@@ -743,20 +747,16 @@ struct WidePairs {
     }
     const unsigned leaves = ~internal & 15u;
     const __mmask16 stop = __mmask16(leaves | leaves << 4 | leaves << 8);
-    const __m512 area_v = _mm512_set1_ps(area);
-    sums.value[0] =
-        _mm512_mask_add_ps(sums.value[0], stop, sums.value[0], _mm512_mul_ps(product, area_v));
+    sums.value[0] = _mm512_mask_add_ps(sums.value[0], stop, sums.value[0], product);
     for (int g = 1; g < GA; ++g)
-      sums.value[g] = _mm512_mask_add_ps(
-          sums.value[g], stop, sums.value[g],
-          _mm512_mul_ps(_mm512_mul_ps(values(values_a, CA, g), b.value), area_v));
-    sums.bound = _mm512_mask_add_ps(sums.bound, stop, sums.bound, _mm512_mul_ps(term, area_v));
+      sums.value[g] = _mm512_mask_add_ps(sums.value[g], stop, sums.value[g],
+                                         _mm512_mul_ps(values(values_a, CA, g), b.value));
+    sums.bound = _mm512_mask_add_ps(sums.bound, stop, sums.bound, term);
     if constexpr (kFolded)
-      sums.bound = _mm512_mask_add_ps(
-          sums.bound, __mmask16(internal | internal << 4 | internal << 8), sums.bound,
-          _mm512_mul_ps(_mm512_mul_ps(stopping_bound, b.bound), area_v));
-    sums.magnitude =
-        _mm512_mask_add_ps(sums.magnitude, stop, sums.magnitude, _mm512_mul_ps(magnitude, area_v));
+      sums.bound =
+          _mm512_mask_add_ps(sums.bound, __mmask16(internal | internal << 4 | internal << 8),
+                             sums.bound, _mm512_mul_ps(stopping_bound, b.bound));
+    sums.magnitude = _mm512_mask_add_ps(sums.magnitude, stop, sums.magnitude, magnitude);
     return internal;
   }
 };
@@ -768,7 +768,8 @@ struct WidePairs {
 // quadrants queued for the next level, so that consecutive pairs do not depend on each other and,
 // nodes lying breadth first, each level's nodes are read in increasing address order. Each
 // pair's arithmetic is the policy's (SSE, or AVX-512 for RGB); sums are kept without the trees'
-// scales, applied once at the end.
+// scales, applied once at the end, and a level's without its quadrants' area, applied once per
+// level.
 template <typename Pairs, int CA, int CB>
 class PackedDescent {
  public:
@@ -837,12 +838,13 @@ class PackedDescent {
   template <bool kTexelA, bool kTexelB>
   unsigned run_level(const Pair* pairs, unsigned count, Pair* next, float area, int depth,
                      Sums& sums) const {
-    // The level works on copies of the constants and the sums: SIMD stores may alias anything,
-    // so that every pair's stores into the next level would otherwise send the sums and
-    // constants through memory (a chain of stores and reloads from one pair to the next). The
-    // sums take the same additions in the same order: the result keeps its bits.
+    // The level works on a copy of the constants and sums of its own: SIMD stores may alias
+    // anything, so that every pair's stores into the next level would otherwise send the sums
+    // and constants through memory (a chain of stores and reloads from one pair to the next).
+    // The level's sums are kept without its area, a power of two applied once at the end
+    // (exactly, so that only the order of the additions changes).
     const DescentConstants<CA, CB> k = k_;
-    Sums level_sums = sums;
+    Sums level_sums, nested;
     unsigned queued = 0;
     const LevelNodes nodes = level_nodes(depth), children_nodes = level_nodes(depth + 1);
     for (unsigned i = 0; i < count; ++i) {
@@ -850,17 +852,17 @@ class PackedDescent {
       const std::uint32_t* wb = nodes.b + std::size_t(pairs[i].b) * nodes.stride_b;
       if constexpr (kTexelA || kTexelB) {
         // A texel node has no children: nothing goes on.
-        Pairs::template visit<kTexelA, kTexelB>(k, wa, wb, 0, area, level_sums);
+        Pairs::template visit<kTexelA, kTexelB>(k, wa, wb, 0, level_sums);
         continue;
       }
       const std::uint32_t la = wa[0], lb = wb[0];
       const unsigned internal =
-          Pairs::template visit<false, false>(k, wa, wb, la & lb & 0xFu, area, level_sums);
+          Pairs::template visit<false, false>(k, wa, wb, la & lb & 0xFu, level_sums);
       if (queued > kLevelPairs - 4) [[unlikely]] {
         // No room: descend this pair's internal quadrants now, each in a nested call.
         for (unsigned q = 0; q < 4; ++q)
           if (internal >> q & 1)
-            level_sums.add(run(first_child(la, q), first_child(lb, q), area * 0.25f, depth + 1));
+            nested.add(run(first_child(la, q), first_child(lb, q), area * 0.25f, depth + 1));
         continue;
       }
       // The children are read when their level comes: ask for them now, so that memory
@@ -895,7 +897,8 @@ class PackedDescent {
       queued = unsigned(slot - next);
 #endif
     }
-    sums = level_sums;
+    sums.add(level_sums, area);
+    sums.add(nested);
     return queued;
   }
 
