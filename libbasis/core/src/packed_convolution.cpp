@@ -403,9 +403,10 @@ struct NarrowPairs {
 
   // One channel of one group of a side of a pair, four quadrants: its values, the magnitude the
   // largest-deviation terms take (|v|, or a shared word's rounding magnitude), the rounding
-  // share, and its bounds (codes, or an exact texel's rounding).
+  // share, how far rounding may have moved the value in units of kHalfRounding (|v| for halves, a
+  // shared word's step share), and its bounds (codes, or an exact texel's rounding).
   struct Side {
-    __m128 value, magnitude, share, bound;
+    __m128 value, magnitude, share, rounding, bound;
   };
   // Channel c of the node at w (a texel node with kTexel), from its shared-exponent words and
   // their steps (loaded once per node) when shared, else from its halves.
@@ -418,6 +419,7 @@ struct NarrowPairs {
       const __m128 step_share = _mm_mul_ps(steps, _mm_set1_ps(kSharedStepMagnitude));
       s.magnitude = _mm_max_ps(s.value, step_share);
       s.share = _mm_mul_ps(_mm_add_ps(s.value, step_share), _mm_set1_ps(0.5f));
+      s.rounding = step_share;
       if constexpr (kTexel)
         s.bound = _mm_mul_ps(steps, _mm_set1_ps(shared_bound));
       else
@@ -425,7 +427,7 @@ struct NarrowPairs {
       return s;
     }
     s.value = load_halves(w + (kTexel ? 0 : 1) + 2 * c);
-    s.share = s.magnitude = abs_ps(s.value);
+    s.rounding = s.share = s.magnitude = abs_ps(s.value);
     if constexpr (kTexel)
       s.bound = texel_bounds(s.magnitude, 1, texel_bound);
     else
@@ -434,12 +436,11 @@ struct NarrowPairs {
   }
 
   // The magnitude whose kRoundingPerMagnitude-fold bounds the rounding terms of a folded pair,
-  // |f| db + |b| df: db is kHalfRounding times |b| (halves) or a shared word's step share, that
-  // is 2 share_b - |b|; df, the terms' and f's own rounding, kHalfRounding times (2 X + |f|),
-  // X the folded tree's half magnitude.
-  static __m128 folded_magnitude(__m128 abs_f, __m128 half_magnitude, __m128 share_b,
+  // |f| db + |b| df: db is kHalfRounding
+  // times b's rounding (Side::rounding: |b| for halves, a shared word's step share); df, the terms'
+  // and f's own rounding, kHalfRounding times (2 X + |f|), X the folded tree's half magnitude.
+  static __m128 folded_magnitude(__m128 abs_f, __m128 half_magnitude, __m128 rounding_b,
                                  __m128 abs_b) {
-    const __m128 rounding_b = _mm_sub_ps(_mm_add_ps(share_b, share_b), abs_b);
     const __m128 rounding_f = _mm_add_ps(_mm_add_ps(half_magnitude, half_magnitude), abs_f);
     return _mm_mul_ps(_mm_add_ps(_mm_mul_ps(abs_f, rounding_b), _mm_mul_ps(rounding_f, abs_b)),
                       _mm_set1_ps(0.5f));
@@ -501,7 +502,8 @@ struct NarrowPairs {
       vb[c] = b.value;
       product[c] = _mm_mul_ps(a.value, b.value);
       if constexpr (kFolded)
-        magnitude[c] = folded_magnitude(abs_ps(a.value), half_magnitude, b.share, abs_ps(b.value));
+        magnitude[c] =
+            folded_magnitude(abs_ps(a.value), half_magnitude, b.rounding, abs_ps(b.value));
       else
         magnitude[c] = _mm_mul_ps(a.share, b.share);
       term[c] = _mm_mul_ps(a.bound, b.bound);
@@ -652,9 +654,10 @@ struct WidePairs {
 
   // One group of a side of a pair, all channels in 12 lanes: its values, the magnitude the
   // largest-deviation terms take (|v|, or a shared word's rounding magnitude), the rounding
-  // share, and its bounds (codes, or an exact texel's rounding).
+  // share, how far rounding may have moved the value (NarrowPairs::Side), and its bounds (codes,
+  // or an exact texel's rounding).
   struct Side {
-    __m512 value, magnitude, share, bound;
+    __m512 value, magnitude, share, rounding, bound;
   };
   // Group 0 of the node at w (a texel node with kTexel), from its shared-exponent words when
   // shared, else from its halves.
@@ -669,6 +672,7 @@ struct WidePairs {
       const __m512 step_share = _mm512_mul_ps(steps, _mm512_set1_ps(kSharedStepMagnitude));
       s.magnitude = _mm512_maskz_max_ps(0xffff, s.value, step_share);
       s.share = _mm512_mul_ps(_mm512_add_ps(s.value, step_share), _mm512_set1_ps(0.5f));
+      s.rounding = step_share;
       if constexpr (kTexel)
         s.bound = _mm512_mul_ps(steps, _mm512_set1_ps(shared_bound));
       else
@@ -676,7 +680,7 @@ struct WidePairs {
       return s;
     }
     s.value = values(values_at, channels, 0);
-    s.share = s.magnitude = abs512(s.value);
+    s.rounding = s.share = s.magnitude = abs512(s.value);
     if constexpr (kTexel)
       s.bound = texel_bounds(s.magnitude, 1, texel_bound);
     else
@@ -719,10 +723,9 @@ struct WidePairs {
     __m512 magnitude;
     if constexpr (kFolded) {  // see NarrowPairs::folded_magnitude
       const __m512 abs_f = abs512(a.value), abs_b = abs512(b.value);
-      const __m512 rounding_b = _mm512_sub_ps(_mm512_add_ps(b.share, b.share), abs_b);
-      const __m512 rounding_f = _mm512_add_ps(_mm512_add_ps(half_magnitude, half_magnitude), abs_f);
+      const __m512 rounding_f = a.share;  // 2 X + |f|
       magnitude =
-          _mm512_mul_ps(_mm512_fmadd_ps(abs_f, rounding_b, _mm512_mul_ps(rounding_f, abs_b)),
+          _mm512_mul_ps(_mm512_fmadd_ps(abs_f, b.rounding, _mm512_mul_ps(rounding_f, abs_b)),
                         _mm512_set1_ps(0.5f));
     } else {
       magnitude = _mm512_mul_ps(a.share, b.share);
