@@ -66,7 +66,7 @@ struct WeightedNode {
 // A term with its weights in the units of its tree's values and bound codes.
 struct ScaledTerm {
   PackedTreeView tree;
-  int groups = 1, channels = 1;
+  int groups = 1, tree_channels = 1;
   std::array<float, 3> value_weight{}, bound_weight{};
 };
 
@@ -93,10 +93,10 @@ void read_node(const ScaledTerm& term, int n, int channels, WeightedNode& out) {
   for (int c = 0; c < 3; ++c)
     out.value[c] = out.magnitude[c] = out.bound[c] = _mm_setzero_ps();
   for (int c = 0; c < channels; ++c) {
-    const int tc = term.channels == 1 ? 0 : c;
+    const int tc = term.tree_channels == 1 ? 0 : c;
     __m128 value = _mm_setzero_ps(), magnitude = _mm_setzero_ps(), bound = _mm_setzero_ps();
     for (int g = 0; g < term.groups; ++g) {
-      const int at = g * term.channels + tc;
+      const int at = g * term.tree_channels + tc;
       const __m128 v = _mm_mul_ps(
           _mm_cvtph_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(words + 1 + 2 * at))),
           _mm_set1_ps(term.value_weight[std::size_t(g)]));
@@ -166,9 +166,10 @@ std::vector<FoldedNode> fold_nodes(std::span<const WeightedTerm> weighted, int c
   states.emplace_back();  // every term at its root
   std::array<WeightedNode, kMaxFoldedTerms> term_nodes;
   for (std::size_t n = 0; n < states.size(); ++n) {
-    // Room for this node's children first, so that `here` stays where it is while they are
+    // Room for this node's four children first, so that `here` stays where it is while they are
     // queued.
-    if (states.capacity() - states.size() < 4) states.reserve(2 * states.capacity());
+    if (states.capacity() - states.size() < 4)
+      states.reserve(std::max(2 * states.capacity(), states.size() + 4));
     const TermStates& here = states[n];
     FoldedNode& out = nodes.emplace_back();
     std::uint32_t refined = 0;

@@ -175,6 +175,46 @@ TEST(FoldedTree, RoundingOfTermsSumAndLightStaysWithinTheBound) {
   EXPECT_LE(error, result.bound[0]);
 }
 
+// The smallest trees that fill a fold's queue at once: four terms of two nodes each (the root and
+// one refined quadrant, a different one per term), whose fold refines all four quadrants of its
+// root; their sum convolves to the dense product within the bound.
+TEST(FoldedTree, TwoNodeTermsRefiningEveryQuadrantFold) {
+  const int n = 4;
+  std::vector<Grid> grids;
+  std::vector<PackedTree> trees;
+  std::vector<WeightedTerm> terms;
+  for (int t = 0; t < 4; ++t) {
+    Grid grid(n, 1);
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x) {
+        const bool inside = x / 2 == (t & 1) && y / 2 == (t >> 1);
+        grid.at(0, 0, x, y) = inside ? 1.0f + 0.5f * float((x + y) % 2) + 0.1f * float(t) : 1.0f;
+      }
+    trees.push_back(pack(project(grid, {.tolerance = 0}), BoundKind::l2, 1));
+    ASSERT_EQ(trees.back().node_count(), 2);
+    grids.push_back(std::move(grid));
+  }
+  for (int t = 0; t < 4; ++t)
+    terms.push_back({trees[std::size_t(t)].view(), {0.25f + 0.1f * float(t), 0, 0}, 1});
+  const FoldedTree folded = fold(terms);
+  EXPECT_EQ(folded.tree.node_count(), 5);
+  Grid light(n, 1);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x)
+      light.at(0, 0, x, y) = 1.0f + float(x) + 0.5f * float(y);
+  const PackedTree b = pack(project(light, {.tolerance = 0}));
+  const Convolution result = convolve(folded, b.view());
+  double texels = 0;
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x)
+      for (int t = 0; t < 4; ++t)
+        texels += double(terms[std::size_t(t)].weights[0]) * grids[std::size_t(t)].at(0, 0, x, y) *
+                  light.at(0, 0, x, y);
+  texels /= n * n;
+  EXPECT_LE(std::abs(result.value[0] - texels), result.bound[0]);
+  EXPECT_LE(result.bound[0], 1e-2 * texels);  // texel-exact terms: only rounding remains
+}
+
 TEST(FoldedTree, RefusesWhatCannotFold) {
   const Grid grid = three_groups(test_functions(16, 1, 54)[1].grid, 55);
   const Quadtree tree = project(grid, {.tolerance = 0.1, .cut_on_all_groups = true});
