@@ -370,7 +370,8 @@ struct NarrowPairs {
   struct Sums {
     __m128 value[GA][C];
     __m128 bound[C];      // product terms, in units of the bound scales
-    __m128 magnitude[C];  // area |a b|, for the halves' rounding, in units of the value scales
+    __m128 magnitude[C];  // |a b| (times area, once a level is done), for the halves' rounding,
+                          // in units of the value scales
     Sums() {
       for (int c = 0; c < C; ++c) {
         for (int g = 0; g < GA; ++g)
@@ -406,7 +407,7 @@ struct NarrowPairs {
   // share, how far rounding may have moved the value in units of kHalfRounding (|v| for halves, a
   // shared word's step share), and its bounds (codes, or an exact texel's rounding).
   struct Side {
-    __m128 value, magnitude, share, rounding, bound;
+    __m128 value, magnitude, share, rounding_units, bound;
   };
   // Channel c of the node at w (a texel node with kTexel), from its shared-exponent words and
   // their steps (loaded once per node) when shared, else from its halves.
@@ -419,7 +420,7 @@ struct NarrowPairs {
       const __m128 step_share = _mm_mul_ps(steps, _mm_set1_ps(kSharedStepMagnitude));
       s.magnitude = _mm_max_ps(s.value, step_share);
       s.share = _mm_mul_ps(_mm_add_ps(s.value, step_share), _mm_set1_ps(0.5f));
-      s.rounding = step_share;
+      s.rounding_units = step_share;
       if constexpr (kTexel)
         s.bound = _mm_mul_ps(steps, _mm_set1_ps(shared_bound));
       else
@@ -427,7 +428,7 @@ struct NarrowPairs {
       return s;
     }
     s.value = load_halves(w + (kTexel ? 0 : 1) + 2 * c);
-    s.rounding = s.share = s.magnitude = abs_ps(s.value);
+    s.rounding_units = s.share = s.magnitude = abs_ps(s.value);
     if constexpr (kTexel)
       s.bound = texel_bounds(s.magnitude, 1, texel_bound);
     else
@@ -436,12 +437,10 @@ struct NarrowPairs {
   }
 
   // The magnitude whose kRoundingPerMagnitude-fold bounds the rounding terms of a folded pair,
-  // |f| db + |b| df: db is kHalfRounding
-  // times b's rounding (Side::rounding: |b| for halves, a shared word's step share); df, the terms'
-  // and f's own rounding, kHalfRounding times (2 X + |f|), X the folded tree's half magnitude.
-  static __m128 folded_magnitude(__m128 abs_f, __m128 half_magnitude, __m128 rounding_b,
-                                 __m128 abs_b) {
-    const __m128 rounding_f = _mm_add_ps(_mm_add_ps(half_magnitude, half_magnitude), abs_f);
+  // |f| db + |b| df: db is kHalfRounding times b's rounding units (Side::rounding_units: |b| for
+  // halves, a shared word's step share); df, the terms' and f's own rounding, kHalfRounding
+  // times rounding_f = 2 X + |f|, X the folded tree's half magnitude (the folded side's share).
+  static __m128 folded_magnitude(__m128 abs_f, __m128 rounding_f, __m128 rounding_b, __m128 abs_b) {
     return _mm_mul_ps(_mm_add_ps(_mm_mul_ps(abs_f, rounding_b), _mm_mul_ps(rounding_f, abs_b)),
                       _mm_set1_ps(0.5f));
   }
@@ -503,7 +502,7 @@ struct NarrowPairs {
       product[c] = _mm_mul_ps(a.value, b.value);
       if constexpr (kFolded)
         magnitude[c] =
-            folded_magnitude(abs_ps(a.value), half_magnitude, b.rounding, abs_ps(b.value));
+            folded_magnitude(abs_ps(a.value), a.share, b.rounding_units, abs_ps(b.value));
       else
         magnitude[c] = _mm_mul_ps(a.share, b.share);
       term[c] = _mm_mul_ps(a.bound, b.bound);
@@ -527,21 +526,20 @@ struct NarrowPairs {
       }
       internal &= ~unsigned(_mm_movemask_ps(enough));
     }
-    const __m128 leaf_area = _mm_andnot_ps(lanes_of(internal), _mm_set1_ps(1.0f));
-    if constexpr (kFolded) {
-      const __m128 internal_area = _mm_and_ps(lanes_of(internal), _mm_set1_ps(1.0f));
+    const __m128 internal_lanes = lanes_of(internal);
+    if constexpr (kFolded)
       for (int c = 0; c < C; ++c)
-        sums.bound[c] = _mm_add_ps(sums.bound[c], _mm_mul_ps(term_on[c], internal_area));
-    }
+        sums.bound[c] = _mm_add_ps(sums.bound[c], _mm_and_ps(internal_lanes, term_on[c]));
     for (int c = 0; c < C; ++c) {
-      sums.value[0][c] = _mm_add_ps(sums.value[0][c], _mm_mul_ps(product[c], leaf_area));
+      sums.value[0][c] = _mm_add_ps(sums.value[0][c], _mm_andnot_ps(internal_lanes, product[c]));
       for (int g = 1; g < GA; ++g) {
         const __m128 vg = load_halves(values_a + 2 * (g * CA + (CA == 1 ? 0 : c)));
         sums.value[g][c] =
-            _mm_add_ps(sums.value[g][c], _mm_mul_ps(_mm_mul_ps(vg, vb[c]), leaf_area));
+            _mm_add_ps(sums.value[g][c], _mm_andnot_ps(internal_lanes, _mm_mul_ps(vg, vb[c])));
       }
-      sums.bound[c] = _mm_add_ps(sums.bound[c], _mm_mul_ps(term[c], leaf_area));
-      sums.magnitude[c] = _mm_add_ps(sums.magnitude[c], _mm_mul_ps(magnitude[c], leaf_area));
+      sums.bound[c] = _mm_add_ps(sums.bound[c], _mm_andnot_ps(internal_lanes, term[c]));
+      sums.magnitude[c] =
+          _mm_add_ps(sums.magnitude[c], _mm_andnot_ps(internal_lanes, magnitude[c]));
     }
     return internal;
   }
@@ -582,7 +580,9 @@ __m512 linf_terms(const DescentConstants<CA, CB>& k, __m512 term, __m512 sa, __m
 
 // Per-pair arithmetic on AVX-512 registers: the four quadrants of all three channels in one
 // register (lanes 4c .. 4c + 3 hold channel c), a grey side repeated in all three.
-template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB, bool kFolded = false>
+// kSharedWordsB: b's values are known to be shared-exponent words (else the tree says).
+template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB, bool kFolded = false,
+          bool kSharedWordsB = false>
 struct WidePairs {
   static constexpr int C = 3;
   static constexpr __mmask16 kLanes = 0x0fff;
@@ -657,7 +657,7 @@ struct WidePairs {
   // share, how far rounding may have moved the value (NarrowPairs::Side), and its bounds (codes,
   // or an exact texel's rounding).
   struct Side {
-    __m512 value, magnitude, share, rounding, bound;
+    __m512 value, magnitude, share, rounding_units, bound;
   };
   // Group 0 of the node at w (a texel node with kTexel), from its shared-exponent words when
   // shared, else from its halves.
@@ -672,7 +672,7 @@ struct WidePairs {
       const __m512 step_share = _mm512_mul_ps(steps, _mm512_set1_ps(kSharedStepMagnitude));
       s.magnitude = _mm512_maskz_max_ps(0xffff, s.value, step_share);
       s.share = _mm512_mul_ps(_mm512_add_ps(s.value, step_share), _mm512_set1_ps(0.5f));
-      s.rounding = step_share;
+      s.rounding_units = step_share;
       if constexpr (kTexel)
         s.bound = _mm512_mul_ps(steps, _mm512_set1_ps(shared_bound));
       else
@@ -680,7 +680,7 @@ struct WidePairs {
       return s;
     }
     s.value = values(values_at, channels, 0);
-    s.rounding = s.share = s.magnitude = abs512(s.value);
+    s.rounding_units = s.share = s.magnitude = abs512(s.value);
     if constexpr (kTexel)
       s.bound = texel_bounds(s.magnitude, 1, texel_bound);
     else
@@ -717,15 +717,14 @@ struct WidePairs {
       if constexpr (kTexelA) a.bound = texel_bounds(a.magnitude, k.total_weight, k.texel_bound_a);
       a.share = a.magnitude;
     }
-    const Side b = one_group<kTexelB>(wb, CB, CB == 3 && k.shared_b, k.codes_b, k.texel_bound_b,
-                                      k.shared_bound_b);
+    const Side b = one_group<kTexelB>(wb, CB, kSharedWordsB || (CB == 3 && k.shared_b), k.codes_b,
+                                      k.texel_bound_b, k.shared_bound_b);
     const __m512 product = _mm512_mul_ps(a.value, b.value);
     __m512 magnitude;
     if constexpr (kFolded) {  // see NarrowPairs::folded_magnitude
       const __m512 abs_f = abs512(a.value), abs_b = abs512(b.value);
-      const __m512 rounding_f = a.share;  // 2 X + |f|
       magnitude =
-          _mm512_mul_ps(_mm512_fmadd_ps(abs_f, b.rounding, _mm512_mul_ps(rounding_f, abs_b)),
+          _mm512_mul_ps(_mm512_fmadd_ps(abs_f, b.rounding_units, _mm512_mul_ps(a.share, abs_b)),
                         _mm512_set1_ps(0.5f));
     } else {
       magnitude = _mm512_mul_ps(a.share, b.share);
@@ -913,13 +912,16 @@ class PackedDescent {
 };
 
 // floor_weight > 0: a is a folded tree (folded_tree.h) whose terms' rounding that weight covers.
-template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB, bool kFolded = false>
+// kSharedWordsB: b's values are shared-exponent words (WidePairs).
+template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB, bool kFolded = false,
+          bool kSharedWordsB = false>
 GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, double accuracy,
                               std::span<const float> weights, float floor_weight = 0) {
   constexpr int C = CA > CB ? CA : CB;
 #if defined(__AVX512F__) && defined(__AVX512BW__) && defined(__AVX512VL__)
-  using Pairs = std::conditional_t<C == 3, WidePairs<CA, CB, GA, GW, kLinfA, kLinfB, kFolded>,
-                                   NarrowPairs<CA, CB, GA, GW, kLinfA, kLinfB, kFolded>>;
+  using Pairs =
+      std::conditional_t<C == 3, WidePairs<CA, CB, GA, GW, kLinfA, kLinfB, kFolded, kSharedWordsB>,
+                         NarrowPairs<CA, CB, GA, GW, kLinfA, kLinfB, kFolded>>;
 #else
   using Pairs = NarrowPairs<CA, CB, GA, GW, kLinfA, kLinfB, kFolded>;
 #endif
@@ -954,6 +956,12 @@ GroupConvolution dispatch_simd(const PackedTreeView& a, const PackedTreeView& b,
     if (lb)
       return descend_simd<CA, CB, GA, GW, false, true, kFolded>(a, b, accuracy, weights,
                                                                 floor_weight);
+    // A batch's folded lookups against captures (shared-exponent words, RGB): the encoding
+    // known at compile time spares every pair a branch and the merge of its two sides.
+    if constexpr (kFolded && CB == 3)
+      if (b.shape().shared_values())
+        return descend_simd<CA, CB, GA, GW, false, false, true, true>(a, b, accuracy, weights,
+                                                                      floor_weight);
     return descend_simd<CA, CB, GA, GW, false, false, kFolded>(a, b, accuracy, weights,
                                                                floor_weight);
   };
