@@ -30,7 +30,7 @@ if [ "${BASIS_SKIP_SANITIZERS:-0}" != 1 ]; then
   repeated_accuracy_cases+='|RadianceCache\.ConvergesToTheReferenceAsRecordsGrowDenser'
   # intercept_tls_get_addr=0: clang 14's runtime misreads some dynamic TLS blocks of the image
   # module (loaded with dlopen) on glibc 2.36 and its leak check then crashes at exit, about
-  # once in 40 processes; the blocks are heap allocations the leak check still scans.
+  # once in 50 processes; the blocks are heap allocations the leak check still scans.
   ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:intercept_tls_get_addr=0 \
     UBSAN_OPTIONS=print_stacktrace=1 \
     ctest --test-dir build-asan --output-on-failure -j "$(nproc)" -E "$repeated_accuracy_cases"
