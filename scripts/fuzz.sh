@@ -44,7 +44,8 @@ fi
 # One target for the given time; its log and exit status land in the scratch folder.
 run_target() {
   local target=$1 status=0
-  ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:intercept_tls_get_addr=0 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:intercept_tls_get_addr=0 \
+    UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     "build-asan/bin/$target" -max_total_time="$seconds" -rss_limit_mb=4096 \
     -max_len=1048576 -print_final_stats=1 -artifact_prefix="build-asan/$target-" \
     "$scratch/$target" >"$scratch/$target.log" 2>&1 || status=$?
