@@ -4,10 +4,17 @@ grid's rows, and qtconvolve --dense --time (the trees and the vectorised dense p
 reconstructions timed in one run, per lookup), at full depth and with an --accuracy target; plus the capture sets' size against dense grids and,
 with --reference, the lookups' error against full-resolution references.
 
+With --main-job ROUNDS, instead: the main job's own files (scripts/demo.sh's out/phong.qt,
+out/ggx.qt and out/captures.qt), each lookup of the README's first table (the two tables at their
+directions, full depth and at accuracy targets) timed in ROUNDS rounds, the rounds one after
+another, and its error and certified bound against full-resolution references once.
+
 Usage: lookup_study.py [--quick] [--reference] OUT_DIR
+       lookup_study.py --main-job ROUNDS
 Prints a Markdown table and writes OUT_DIR/lookup_study.json. Needs build/bin (scripts/setup.sh)
 and the maps of Debian's blender-data and the bunny of glmark2-data; the probes of
 ../shared/data are used when present."""
+import argparse
 import json
 import os
 import subprocess
@@ -36,6 +43,12 @@ CASES = [
 LOOKUPS = [("Phong normal", "phong", "0,0,1"), ("Phong off-grid", "phong", "0.3,0.2,0.93"),
            ("GGX 30°", "ggx", "0.5,0,0.866"), ("GGX off-grid", "ggx", "0.3,0.2,0.93")]
 ACCURACIES = [0, 0.05]
+# The main job's lookups in the README's first table: (label, table, wo, entries, accuracies).
+MAIN_JOB = [("Phong at the normal", "phong", "0,0,1", 1, [0, 0.05, 0.1]),
+            ("Phong 30°", "phong", "0.5,0,0.866", 2, [0, 0.05, 0.1]),
+            ("Phong off the rows", "phong", "0.3,0.2,0.93", 4, [0, 0.05, 0.1]),
+            ("copper GGX 30°", "ggx", "0.5,0,0.866", 2, [0, 0.05, 0.1, 0.2]),
+            ("copper GGX off the rows", "ggx", "0.3,0.2,0.93", 4, [0, 0.05, 0.1, 0.2])]
 
 
 def run(args, **kwargs):
@@ -53,17 +66,90 @@ def convolve(table, captures, wo, accuracy, dense, reference=False):
     return json.loads(run(args))
 
 
-def errors(result):
-    """Median and 99th percentile of |value - reference| / reference over points and channels."""
-    e = sorted(abs(r["difference"][c]) / r["reference"][c] for r in result["results"]
-               for c in range(3) if r["reference"][c] > 1e-4)
-    return e[len(e) // 2], e[len(e) * 99 // 100]
+def percentiles(values):
+    """Median and 99th percentile."""
+    v = sorted(values)
+    return v[len(v) // 2], v[len(v) * 99 // 100]
+
+
+def errors(result, floor=1e-4):
+    """Median and 99th percentile of |value - reference| / reference over the points and channels
+    whose reference exceeds floor."""
+    return percentiles(abs(r["difference"][c]) / r["reference"][c] for r in result["results"]
+                       for c in range(3) if r["reference"][c] > floor)
+
+
+def certified(result, floor=1e-3):
+    """Whether every bound holds, and the bounds' median and 99th percentile relative to the
+    reference, over the points and channels whose reference exceeds floor; and how many."""
+    rows = [(r, c) for r in result["results"] for c in range(3) if r["reference"][c] > floor]
+    held = all(abs(r["difference"][c]) <= r["bound"][c] for r in result["results"]
+               for c in range(3))
+    return held, percentiles(r["bound"][c] / r["reference"][c] for r, c in rows), len(rows)
+
+
+def span(values, digits):
+    """'lo–hi' of values (one figure when they round alike)."""
+    lo, hi = f"{min(values):.{digits}f}", f"{max(values):.{digits}f}"
+    return lo if lo == hi else f"{lo}–{hi}"
+
+
+def main_job(rounds):
+    out = os.path.join(ROOT, "out")
+    captures = os.path.join(out, "captures.qt")
+    for path in [captures] + [os.path.join(out, f"{name}.qt") for _, name, _, _, _ in MAIN_JOB]:
+        if not os.path.exists(path):
+            sys.exit(f"lookup_study: {path} is absent; run scripts/demo.sh first")
+    cases = [(label, os.path.join(out, f"{name}.qt"), wo, entries, accuracy)
+             for label, name, wo, entries, accuracies in MAIN_JOB for accuracy in accuracies]
+    times = {case: [] for case in cases}
+    for round_index in range(rounds):
+        for case in cases:
+            _, table, wo, _, accuracy = case
+            r = convolve(table, captures, wo, accuracy, True)
+            times[case].append((r["tree_ns_per_lookup"], r["ns_per_lookup"]))
+        print(f"round {round_index + 1} of {rounds}: done", file=sys.stderr)
+    print("| lookup | entries | trees | dense | trees faster | median of the rounds | "
+          "error, median / p99 | certified bound, median / p99 |")
+    print("|---|---|---|---|---|---|---|---|")
+    for case in cases:
+        label, table, wo, entries, accuracy = case
+        r = convolve(table, captures, wo, accuracy, False, True)
+        e50, e99 = errors(r, 1e-3)
+        held, (b50, b99), count = certified(r)
+        if not held:
+            sys.exit(f"lookup_study: a certified bound did not hold: {label} at {accuracy:g}")
+        trees = [t / 1000 for t, _ in times[case]]
+        dense = [d / 1000 for _, d in times[case]]
+        ratios = [d / t for t, d in times[case]]
+        how = "full descent" if accuracy == 0 else f"`--accuracy {accuracy:g}`"
+        print(f"| {label}, {how} | {entries} | {span(trees, 2)} µs | {span(dense, 1)} µs | "
+              f"{span(ratios, 1)}× | {percentiles(ratios)[0]:.1f}× | "
+              f"{100 * e50:.3f} % / {100 * e99:.2f} % | "
+              f"{100 * b50:.2f} % / {100 * b99:.2f} % |")
+        print(f"{label} at {accuracy:g}: {count} values, every bound held", file=sys.stderr)
 
 
 def main():
-    quick = "--quick" in sys.argv
-    reference = "--reference" in sys.argv
-    out = [a for a in sys.argv[1:] if not a.startswith("--")][0]
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n")[1],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        usage="%(prog)s [--quick] [--reference] OUT_DIR | %(prog)s --main-job ROUNDS")
+    parser.add_argument("out", nargs="?", metavar="OUT_DIR", help="where the study's files go")
+    parser.add_argument("--quick", action="store_true", help="200 captures a scene, not 1000")
+    parser.add_argument("--reference", action="store_true",
+                        help="also the lookups' error against full-resolution references")
+    parser.add_argument("--main-job", type=int, metavar="ROUNDS",
+                        help="time the main job's own lookups in ROUNDS rounds instead")
+    args = parser.parse_args()
+    if args.main_job is not None:
+        if args.main_job < 1:
+            parser.error("--main-job needs at least one round")
+        main_job(args.main_job)
+        return
+    if args.out is None:
+        parser.error("OUT_DIR is required (or --main-job ROUNDS)")
+    quick, reference, out = args.quick, args.reference, args.out
     os.makedirs(out, exist_ok=True)
     points = "200" if quick else "1000"
     tables = {}
