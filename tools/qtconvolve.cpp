@@ -1,6 +1,7 @@
 // qtconvolve: convolve .qt files. Two trees give their integral; a BRDF table and captures give
 // the reflected radiance at every capture; two capture sets give their products point by point.
 #include <cstdio>
+#include <functional>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -31,27 +32,57 @@ struct Row {
   std::optional<basis::Rgb> reference;
 };
 
-// Median times over the whole batch, repeated for at least 0.1 s per run, summed over blocks.
+// Five runs over the whole batch, each repeated for at least 0.1 s, their times summed over
+// blocks; the median run's.
 struct Timing {
-  double ns = 0;  // over all results timed
+  basis::RunTimes runs_ns{};  // over all results timed
   std::uint64_t results = 0;
   int convolutions_per_result = 1;
-  double ns_per_lookup() const { return ns / double(std::max<std::uint64_t>(1, results)); }
+  double ns_per_lookup() const {
+    return basis::median_of(runs_ns) / double(std::max<std::uint64_t>(1, results));
+  }
   double ns_per_convolution() const { return ns_per_lookup() / convolutions_per_result; }
+  void add(const basis::RunTimes& runs, const basis::FileConvolution& convolution) {
+    for (std::size_t r = 0; r < runs.size(); ++r)
+      runs_ns[r] += runs[r];
+    results += convolution.size();
+    convolutions_per_result = convolution.convolutions_per_result();
+  }
 };
+
+// How many times faster the second timing's runs were than the first's: the median of the
+// ratios of runs taken in turn (time_side_by_side), steadier than the medians' ratio.
+double speedup(const Timing& slow, const Timing& fast) {
+  basis::RunTimes ratios;
+  for (std::size_t r = 0; r < ratios.size(); ++r)
+    ratios[r] = slow.runs_ns[r] / fast.runs_ns[r];
+  return basis::median_of(ratios);
+}
+
+// One pass over a block's results, summed into `sink` so that it is not optimised away.
+std::function<void()> pass(const basis::FileConvolution& convolution, float& sink) {
+  return [&convolution, &sink] {
+    for (std::size_t k = 0; k < convolution.size(); ++k)
+      sink += convolution(k).value[0];
+  };
+}
 
 void time_results(const basis::FileConvolution& convolution, Timing& timing) {
   float sink = 0;
-  const double ns = basis::median_time_ns(
-      [&] {
-        for (std::size_t k = 0; k < convolution.size(); ++k)
-          sink += convolution(k).value[0];
-      },
-      0.1);
+  timing.add(basis::run_times_ns(pass(convolution, sink), 0.1), convolution);
   if (sink == -1) std::cerr << "";
-  timing.ns += ns;
-  timing.results += convolution.size();
-  timing.convolutions_per_result = convolution.convolutions_per_result();
+}
+
+// Both evaluations of a block timed in runs taken in turn, so that each pair of runs meets the
+// same moment of the machine.
+void time_side_by_side(const basis::FileConvolution& dense, const basis::FileConvolution& trees,
+                       Timing& dense_timing, Timing& tree_timing) {
+  float sink = 0;
+  const basis::AlternatingRuns runs =
+      basis::alternating_run_times_ns(pass(dense, sink), pass(trees, sink), 0.1);
+  dense_timing.add(runs.a_ns, dense);
+  tree_timing.add(runs.b_ns, trees);
+  if (sink == -1) std::cerr << "";
 }
 
 // "N ns per convolution (M ns per lookup)" for the results, and for the trees beside them.
@@ -65,7 +96,7 @@ std::string timing_text(const Timing& time, const std::optional<Timing>& trees) 
                   "dense %.1f ns per convolution (%.1f ns per lookup); trees %.1f ns (%.1f ns); "
                   "trees %.1fx faster",
                   time.ns_per_convolution(), time.ns_per_lookup(), trees->ns_per_convolution(),
-                  trees->ns_per_lookup(), time.ns_per_lookup() / trees->ns_per_lookup());
+                  trees->ns_per_lookup(), speedup(time, *trees));
   }
   return text;
 }
@@ -331,8 +362,10 @@ int main(int argc, char** argv) {
       }
       // Each block is timed for at least 0.1 s: a long run is timed on its first blocks.
       const bool timed = timing && timing->results < kMostTimedResults;
-      if (timed) time_results(convolution, *timing);
-      if (timed && tree_timing) time_results(trees, *tree_timing);
+      if (timed && tree_timing)
+        time_side_by_side(convolution, trees, *timing, *tree_timing);
+      else if (timed)
+        time_results(convolution, *timing);
       if (reference) {
         basis::TaskControl control = progress.control();
         control.progress = [&](std::size_t d, std::size_t) {
@@ -385,6 +418,7 @@ int main(int argc, char** argv) {
       if (tree_timing) {
         times["tree_ns_per_convolution"] = tree_timing->ns_per_convolution();
         times["tree_ns_per_lookup"] = tree_timing->ns_per_lookup();
+        times["tree_speedup"] = speedup(*timing, *tree_timing);
       }
       std::string tail = "\n]";
       for (const auto& [key, value] : times.items())
@@ -393,7 +427,9 @@ int main(int argc, char** argv) {
     } else if (timing && csv) {
       std::fprintf(stderr, "qtconvolve: %s\n", timing_text(*timing, tree_timing).c_str());
     } else if (timing) {
-      out.write("# " + timing_text(*timing, tree_timing) + ", medians of repeated runs\n");
+      out.write("# " + timing_text(*timing, tree_timing) +
+                (tree_timing ? ", medians of five runs, the two taken in turn\n"
+                             : ", medians of repeated runs\n"));
     }
     out.commit();
   });

@@ -3,6 +3,7 @@
 // references; tilted normals against the exactly rotated integral; mismatched inputs.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -235,11 +236,9 @@ TEST(QtconvolveCli, TiltedNormalsAreCompensatedWithinTheDocumentedAccuracy) {
   }
 }
 
-TEST(QtconvolveCli, WoIsADirectionWhateverItsLength) {
-  TempDir dir;
-  // A glossy lobe under the sunrise reflects differently towards wo and towards the normal,
-  // and the same towards wo scaled by 1e200 or 1e-300 (whose squared lengths leave the double
-  // range): --wo is a direction, whatever its length.
+// In dir: p.qt, a table of a Phong lobe (exponent 20) at 5^2 directions and 16^2, and sky.qt,
+// one 16^2 capture of the sun map at the origin.
+void make_lobe_and_sky(const TempDir& dir) {
   std::ofstream(dir.file("p.json")) << R"({"model": "phong", "kd": 0, "ks": 1, "exponent": 20})";
   ASSERT_EQ(
       run_tool("brdf2qt", {"p.json", "--wo-res", "5", "--wi-res", "16", "-q"}, dir.path()).status,
@@ -249,6 +248,15 @@ TEST(QtconvolveCli, WoIsADirectionWhateverItsLength) {
                      dir.path())
                 .status,
             0);
+}
+
+TEST(QtconvolveCli, WoIsADirectionWhateverItsLength) {
+  TempDir dir;
+  // A glossy lobe under the sunrise reflects differently towards wo and towards the normal,
+  // and the same towards wo scaled by 1e200 or 1e-300 (whose squared lengths leave the double
+  // range): --wo is a direction, whatever its length.
+  make_lobe_and_sky(dir);
+  if (::testing::Test::HasFatalFailure()) return;
   auto glossy = [&](const std::string& wo) {
     return convolve_json(dir, {"p.qt", "sky.qt", "--wo", wo})["results"][0]["value"][0]
         .get<double>();
@@ -257,6 +265,30 @@ TEST(QtconvolveCli, WoIsADirectionWhateverItsLength) {
   EXPECT_GT(std::abs(towards_wo - glossy("0,0,1")), 1e-3 * towards_wo);
   EXPECT_NEAR(glossy("6e199,0,8e199"), towards_wo, 1e-6 * towards_wo);
   EXPECT_NEAR(glossy("6e-301,0,8e-301"), towards_wo, 1e-6 * towards_wo);
+}
+
+// --time measures without changing what is computed: the same results as an untimed run, and,
+// beside --dense, both sides' times and the median of the ratios of their runs taken in turn.
+TEST(QtconvolveCli, TimingKeepsTheResultsAndReportsBothSides) {
+  TempDir dir;
+  make_lobe_and_sky(dir);
+  if (::testing::Test::HasFatalFailure()) return;
+  for (const bool dense : {false, true}) {
+    std::vector<std::string> args = {"p.qt", "sky.qt", "--wo", "0.6,0,0.8"};
+    if (dense) args.push_back("--dense");
+    const auto untimed = convolve_json(dir, args);
+    args.push_back("--time");
+    const auto timed = convolve_json(dir, args);
+    EXPECT_EQ(timed["results"], untimed["results"]) << "dense " << dense;
+    EXPECT_GT(timed["ns_per_lookup"].get<double>(), 0);
+    EXPECT_EQ(timed.contains("tree_ns_per_lookup"), dense);
+    EXPECT_EQ(timed.contains("tree_speedup"), dense);
+    if (dense) {
+      EXPECT_GT(timed["tree_ns_per_lookup"].get<double>(), 0);
+      const double speedup = timed["tree_speedup"].get<double>();
+      EXPECT_TRUE(std::isfinite(speedup) && speedup > 0) << speedup;
+    }
+  }
 }
 
 TEST(QtconvolveCli, MismatchedInputsAreClearErrors) {

@@ -2,32 +2,61 @@
 
 #include <algorithm>
 #include <chrono>
-#include <vector>
 
 namespace basis {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// Calls per clock reading: one for slow kernels, more for fast ones (the clock costs ~20 ns).
+int calls_per_reading(const std::function<void()>& kernel) {
+  const auto probe = Clock::now();
+  kernel();
+  return std::chrono::duration<double>(Clock::now() - probe).count() > 1e-6 ? 1 : 64;
+}
+
+// One run: `kernel` repeated in batches for about `seconds`; the time per call in nanoseconds.
+double one_run_ns(const std::function<void()>& kernel, int batch, double seconds) {
+  long long calls = 0;
+  const auto start = Clock::now();
+  double elapsed = 0;
+  do {
+    for (int k = 0; k < batch; ++k)
+      kernel();
+    calls += batch;
+    elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+  } while (elapsed < seconds);
+  return elapsed * 1e9 / double(calls);
+}
+
+}  // namespace
+
+RunTimes run_times_ns(const std::function<void()>& kernel, double seconds) {
+  const int batch = calls_per_reading(kernel);
+  RunTimes runs;
+  for (double& run : runs)
+    run = one_run_ns(kernel, batch, seconds);
+  return runs;
+}
+
+double median_of(RunTimes values) {
+  std::nth_element(values.begin(), values.begin() + 2, values.end());
+  return values[2];
+}
 
 double median_time_ns(const std::function<void()>& kernel, double seconds) {
-  // Calls per clock reading: one for slow kernels, more for fast ones (the clock costs ~20 ns).
-  auto now = [] { return std::chrono::steady_clock::now(); };
-  const auto probe = now();
-  kernel();
-  const double first = std::chrono::duration<double>(now() - probe).count();
-  const int batch = first > 1e-6 ? 1 : 64;
-  std::vector<double> runs;
-  for (int run = 0; run < 5; ++run) {
-    long long calls = 0;
-    const auto start = now();
-    double elapsed = 0;
-    do {
-      for (int k = 0; k < batch; ++k)
-        kernel();
-      calls += batch;
-      elapsed = std::chrono::duration<double>(now() - start).count();
-    } while (elapsed < seconds);
-    runs.push_back(elapsed * 1e9 / double(calls));
+  return median_of(run_times_ns(kernel, seconds));
+}
+
+AlternatingRuns alternating_run_times_ns(const std::function<void()>& a,
+                                         const std::function<void()>& b, double seconds) {
+  const int batch_a = calls_per_reading(a), batch_b = calls_per_reading(b);
+  AlternatingRuns runs;
+  for (std::size_t run = 0; run < runs.a_ns.size(); ++run) {
+    runs.a_ns[run] = one_run_ns(a, batch_a, seconds);
+    runs.b_ns[run] = one_run_ns(b, batch_b, seconds);
   }
-  std::nth_element(runs.begin(), runs.begin() + 2, runs.end());
-  return runs[2];
+  return runs;
 }
 
 }  // namespace basis

@@ -1,12 +1,30 @@
 // Timing of short kernels for studies and tools: medians of repeated runs on one thread.
 #pragma once
 
+#include <array>
 #include <functional>
 
 namespace basis {
 
+// The time per call of `kernel` in five runs, each repeating it for about `seconds`, in
+// nanoseconds.
+using RunTimes = std::array<double, 5>;
+RunTimes run_times_ns(const std::function<void()>& kernel, double seconds);
+
+// The median of five values.
+double median_of(RunTimes values);
+
 // Median over five runs of the time per call of `kernel`, each run repeating it for about
 // `seconds`, in nanoseconds.
 double median_time_ns(const std::function<void()>& kernel, double seconds);
+
+// The times per call of kernels a and b in five runs each, taken in turn (a, b, a, b, ...),
+// each run repeating its kernel for about `seconds`, in nanoseconds: runs next to each other
+// meet the same moment of the machine, so that their ratios move less than the times.
+struct AlternatingRuns {
+  RunTimes a_ns{}, b_ns{};
+};
+AlternatingRuns alternating_run_times_ns(const std::function<void()>& a,
+                                         const std::function<void()>& b, double seconds);
 
 }  // namespace basis
