@@ -51,8 +51,10 @@ struct Timing {
 };
 
 // How many times faster the second timing's runs were than the first's: the median of the
-// ratios of runs taken in turn (time_side_by_side), steadier than the medians' ratio.
+// ratios of runs taken in turn (time_side_by_side), steadier than the medians' ratio; 0 when
+// nothing was timed (a shard without results).
 double speedup(const Timing& slow, const Timing& fast) {
+  if (fast.results == 0) return 0;
   basis::RunTimes ratios;
   for (std::size_t r = 0; r < ratios.size(); ++r)
     ratios[r] = slow.runs_ns[r] / fast.runs_ns[r];
