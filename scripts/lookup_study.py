@@ -1,18 +1,21 @@
 """Lookups on real scenes, trees against dense grids: for each scene and map, 1000 captures at the
 defaults, the main job's Phong and copper GGX tables at the main job's directions and off the
 grid's rows, and qtconvolve --dense --time (the trees and the vectorised dense products of their
-reconstructions timed in one run, per lookup), at full depth and with an --accuracy target; plus the capture sets' size against dense grids and,
-with --reference, the lookups' error against full-resolution references.
+reconstructions timed in turn in one process, per lookup), at full depth and with an --accuracy
+target; plus the capture sets' size against dense grids and, with --reference, the lookups'
+error against full-resolution references.
 
 With --main-job ROUNDS, instead: the main job's own files (scripts/demo.sh's out/phong.qt,
 out/ggx.qt and out/captures.qt), each lookup of the README's first table (the two tables at their
 directions, full depth and at accuracy targets) timed in ROUNDS rounds, the rounds one after
-another, and its error and certified bound against full-resolution references once.
+another, and its error and certified bound against full-resolution references once; it prints
+the README's table (ROUNDS odd, so that the median round is one of them) and exits with an
+error if a bound does not hold.
 
 Usage: lookup_study.py [--quick] [--reference] OUT_DIR
        lookup_study.py --main-job ROUNDS
-Prints a Markdown table and writes OUT_DIR/lookup_study.json. Needs build/bin (scripts/setup.sh)
-and the maps of Debian's blender-data and the bunny of glmark2-data; the probes of
+The study prints a Markdown table and writes OUT_DIR/lookup_study.json. Needs build/bin
+(scripts/setup.sh) and the maps of Debian's blender-data and the bunny of glmark2-data; the probes of
 ../shared/data are used when present."""
 import argparse
 import json
@@ -124,7 +127,7 @@ def main_job(rounds):
         ratios = [ratio for _, _, ratio in times[case]]
         how = "full descent" if accuracy == 0 else f"`--accuracy {accuracy:g}`"
         print(f"| {label}, {how} | {entries} | {span(trees, 2)} µs | {span(dense, 1)} µs | "
-              f"{span(ratios, 1)}× | {percentiles(ratios)[0]:.1f}× | "
+              f"{span(ratios, 1)}× | {sorted(ratios)[len(ratios) // 2]:.1f}× | "
               f"{100 * e50:.3f} % / {100 * e99:.2f} % | "
               f"{100 * b50:.2f} % / {100 * b99:.2f} % |")
         print(f"{label} at {accuracy:g}: {count} values, every bound held", file=sys.stderr)
@@ -132,7 +135,7 @@ def main_job(rounds):
 
 def main():
     parser = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n")[1],
+        description=__doc__.split("\n\n")[0], epilog="\n\n".join(__doc__.split("\n\n")[1:]),
         formatter_class=argparse.RawDescriptionHelpFormatter,
         usage="%(prog)s [--quick] [--reference] OUT_DIR | %(prog)s --main-job ROUNDS")
     parser.add_argument("out", nargs="?", metavar="OUT_DIR", help="where the study's files go")
@@ -143,8 +146,10 @@ def main():
                         help="time the main job's own lookups in ROUNDS rounds instead")
     args = parser.parse_args()
     if args.main_job is not None:
-        if args.main_job < 1:
-            parser.error("--main-job needs at least one round")
+        if args.main_job < 1 or args.main_job % 2 == 0:
+            parser.error("--main-job needs an odd number of rounds (1, 3, 5, ...)")
+        if args.out or args.quick or args.reference:
+            parser.error("--main-job takes no OUT_DIR, --quick or --reference (it reads out/)")
         main_job(args.main_job)
         return
     if args.out is None:

@@ -1,5 +1,6 @@
 // qtconvolve: convolve .qt files. Two trees give their integral; a BRDF table and captures give
 // the reflected radiance at every capture; two capture sets give their products point by point.
+#include <array>
 #include <cstdio>
 #include <functional>
 #include <iostream>
@@ -32,8 +33,8 @@ struct Row {
   std::optional<basis::Rgb> reference;
 };
 
-// Five runs over the whole batch, each repeated for at least 0.1 s, their times summed over
-// blocks; the median run's.
+// The times of five runs over the batch (each at least 0.1 s), summed over blocks; per-lookup
+// figures take the median run.
 struct Timing {
   basis::RunTimes runs_ns{};  // over all results timed
   std::uint64_t results = 0;
@@ -51,18 +52,18 @@ struct Timing {
 };
 
 // How many times faster the second timing's runs were than the first's: the median of the
-// ratios of runs taken in turn (time_side_by_side), steadier than the medians' ratio; 0 when
+// ratios of runs taken in turn (time_in_turn), steadier than the medians' ratio; 0 when
 // nothing was timed (a shard without results).
 double speedup(const Timing& slow, const Timing& fast) {
   if (fast.results == 0) return 0;
-  basis::RunTimes ratios;
+  std::array<double, 5> ratios;
   for (std::size_t r = 0; r < ratios.size(); ++r)
     ratios[r] = slow.runs_ns[r] / fast.runs_ns[r];
   return basis::median_of(ratios);
 }
 
 // One pass over a block's results, summed into `sink` so that it is not optimised away.
-std::function<void()> pass(const basis::FileConvolution& convolution, float& sink) {
+std::function<void()> summing_pass(const basis::FileConvolution& convolution, float& sink) {
   return [&convolution, &sink] {
     for (std::size_t k = 0; k < convolution.size(); ++k)
       sink += convolution(k).value[0];
@@ -71,17 +72,17 @@ std::function<void()> pass(const basis::FileConvolution& convolution, float& sin
 
 void time_results(const basis::FileConvolution& convolution, Timing& timing) {
   float sink = 0;
-  timing.add(basis::run_times_ns(pass(convolution, sink), 0.1), convolution);
+  timing.add(basis::run_times_ns(summing_pass(convolution, sink), 0.1), convolution);
   if (sink == -1) std::cerr << "";
 }
 
 // Both evaluations of a block timed in runs taken in turn, so that each pair of runs meets the
 // same moment of the machine.
-void time_side_by_side(const basis::FileConvolution& dense, const basis::FileConvolution& trees,
-                       Timing& dense_timing, Timing& tree_timing) {
+void time_in_turn(const basis::FileConvolution& dense, const basis::FileConvolution& trees,
+                  Timing& dense_timing, Timing& tree_timing) {
   float sink = 0;
   const basis::AlternatingRuns runs =
-      basis::alternating_run_times_ns(pass(dense, sink), pass(trees, sink), 0.1);
+      basis::alternating_run_times_ns(summing_pass(dense, sink), summing_pass(trees, sink), 0.1);
   dense_timing.add(runs.a_ns, dense);
   tree_timing.add(runs.b_ns, trees);
   if (sink == -1) std::cerr << "";
@@ -90,7 +91,7 @@ void time_side_by_side(const basis::FileConvolution& dense, const basis::FileCon
 // "N ns per convolution (M ns per lookup)" for the results, and for the trees beside them.
 std::string timing_text(const Timing& time, const std::optional<Timing>& trees) {
   char text[256];
-  if (!trees) {
+  if (!trees || trees->results == 0) {
     std::snprintf(text, sizeof text, "%.1f ns per convolution (%.1f ns per lookup)",
                   time.ns_per_convolution(), time.ns_per_lookup());
   } else {
@@ -251,7 +252,8 @@ int main(int argc, char** argv) {
   app.add_flag("--dense", dense,
                "compute the same results with vectorised dense products of every tree's "
                "full-resolution reconstruction (built before timing; untilted lookups); with "
-               "--time, the trees are timed in the same run and both are reported");
+               "--time, the trees are timed in the same run, five runs of each taken in turn, and "
+               "both are reported with the median of the runs' ratios");
   app.add_option("--png", png, "draw the capture points from above, coloured by their values");
   app.add_option("--threads", threads, "worker threads for --reference (default: all cores)")
       ->check(CLI::Range(1, 1024));
@@ -365,7 +367,7 @@ int main(int argc, char** argv) {
       // Each block is timed for at least 0.1 s: a long run is timed on its first blocks.
       const bool timed = timing && timing->results < kMostTimedResults;
       if (timed && tree_timing)
-        time_side_by_side(convolution, trees, *timing, *tree_timing);
+        time_in_turn(convolution, trees, *timing, *tree_timing);
       else if (timed)
         time_results(convolution, *timing);
       if (reference) {

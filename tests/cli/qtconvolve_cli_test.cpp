@@ -236,8 +236,8 @@ TEST(QtconvolveCli, TiltedNormalsAreCompensatedWithinTheDocumentedAccuracy) {
   }
 }
 
-// In dir: p.qt, a table of a Phong lobe (exponent 20) at 5^2 directions and 16^2, and sky.qt,
-// one 16^2 capture of the sun map at the origin.
+// In dir: p.qt, a table of a Phong lobe (exponent 20) at 5^2 directions, 16^2 texels an entry, and
+// sky.qt, one 16^2 capture of the sun map at the origin.
 void make_lobe_and_sky(const TempDir& dir) {
   std::ofstream(dir.file("p.json")) << R"({"model": "phong", "kd": 0, "ks": 1, "exponent": 20})";
   ASSERT_EQ(

@@ -48,6 +48,8 @@ double median_time_ns(const std::function<void()>& kernel, double seconds) {
   return median_of(run_times_ns(kernel, seconds));
 }
 
+// Runs next to each other meet the same moment of the machine, so that their ratios move less
+// than the times.
 AlternatingRuns alternating_run_times_ns(const std::function<void()>& a,
                                          const std::function<void()>& b, double seconds) {
   const int batch_a = calls_per_reading(a), batch_b = calls_per_reading(b);

@@ -6,9 +6,11 @@
 
 namespace basis {
 
+// Five runs' times.
+using RunTimes = std::array<double, 5>;
+
 // The time per call of `kernel` in five runs, each repeating it for about `seconds`, in
 // nanoseconds.
-using RunTimes = std::array<double, 5>;
 RunTimes run_times_ns(const std::function<void()>& kernel, double seconds);
 
 // The median of five values.
@@ -19,8 +21,7 @@ double median_of(RunTimes values);
 double median_time_ns(const std::function<void()>& kernel, double seconds);
 
 // The times per call of kernels a and b in five runs each, taken in turn (a, b, a, b, ...),
-// each run repeating its kernel for about `seconds`, in nanoseconds: runs next to each other
-// meet the same moment of the machine, so that their ratios move less than the times.
+// each run repeating its kernel for about `seconds`, in nanoseconds.
 struct AlternatingRuns {
   RunTimes a_ns{}, b_ns{};
 };
