@@ -52,7 +52,7 @@ struct Timing {
 };
 
 // How many times faster the second timing's runs were than the first's: the median of the
-// ratios of runs taken in turn (time_in_turn), steadier than the medians' ratio; 0 when
+// ratios of runs taken in pairs (time_in_turn), steadier than the medians' ratio; 0 when
 // nothing was timed (a shard without results).
 double speedup(const Timing& slow, const Timing& fast) {
   if (fast.results == 0) return 0;
@@ -76,8 +76,8 @@ void time_results(const basis::FileConvolution& convolution, Timing& timing) {
   if (sink == -1) std::cerr << "";
 }
 
-// Both evaluations of a block timed in runs taken in turn, so that each pair of runs meets the
-// same moment of the machine.
+// Both evaluations of a block timed in pairs of runs, so that each pair meets the same moment of
+// the machine (alternating_run_times_ns swaps which comes first from pair to pair).
 void time_in_turn(const basis::FileConvolution& dense, const basis::FileConvolution& trees,
                   Timing& dense_timing, Timing& tree_timing) {
   float sink = 0;
@@ -252,8 +252,9 @@ int main(int argc, char** argv) {
   app.add_flag("--dense", dense,
                "compute the same results with vectorised dense products of every tree's "
                "full-resolution reconstruction (built before timing; untilted lookups); with "
-               "--time, the trees are timed in the same run, five runs of each taken in turn, and "
-               "both are reported with the median of the runs' ratios");
+               "--time, the trees are timed in the same run, five runs of each in pairs (the order "
+               "swapped from pair to pair), and both are reported with the median of the pairs' "
+               "ratios");
   app.add_option("--png", png, "draw the capture points from above, coloured by their values");
   app.add_option("--threads", threads, "worker threads for --reference (default: all cores)")
       ->check(CLI::Range(1, 1024));
@@ -422,7 +423,7 @@ int main(int argc, char** argv) {
       if (tree_timing) {
         times["tree_ns_per_convolution"] = tree_timing->ns_per_convolution();
         times["tree_ns_per_lookup"] = tree_timing->ns_per_lookup();
-        times["tree_speedup"] = speedup(*timing, *tree_timing);
+        if (tree_timing->results > 0) times["tree_speedup"] = speedup(*timing, *tree_timing);
       }
       std::string tail = "\n]";
       for (const auto& [key, value] : times.items())
@@ -432,8 +433,9 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "qtconvolve: %s\n", timing_text(*timing, tree_timing).c_str());
     } else if (timing) {
       out.write("# " + timing_text(*timing, tree_timing) +
-                (tree_timing ? ", medians of five runs, the two taken in turn\n"
-                             : ", medians of repeated runs\n"));
+                (tree_timing && tree_timing->results > 0
+                     ? ", medians of five runs, the two taken in pairs of runs\n"
+                     : ", medians of repeated runs\n"));
     }
     out.commit();
   });

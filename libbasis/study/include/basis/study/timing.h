@@ -20,8 +20,9 @@ double median_of(RunTimes values);
 // `seconds`, in nanoseconds.
 double median_time_ns(const std::function<void()>& kernel, double seconds);
 
-// The times per call of kernels a and b in five runs each, taken in turn (a, b, a, b, ...),
-// each run repeating its kernel for about `seconds`, in nanoseconds.
+// The times per call of kernels a and b in five runs each, taken in pairs, the order swapped
+// from one pair to the next (a b, b a, a b, b a, a b), each run repeating its kernel for about
+// `seconds`, in nanoseconds. Run k of a and run k of b form pair k.
 struct AlternatingRuns {
   RunTimes a_ns{}, b_ns{};
 };
