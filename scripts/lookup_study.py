@@ -12,11 +12,16 @@ another, and its error and certified bound against full-resolution references on
 the README's table (ROUNDS odd, so that the median round is one of them) and exits with an
 error if a bound does not hold.
 
-Usage: lookup_study.py [--quick] [--reference] OUT_DIR
+With --rounds N (odd), the lookups are timed in N rounds, each round over every scene (the
+captures are traced first, one file per scene), and the table gives each lookup's median
+round's times and ratio, with the ratios' range over the rounds.
+
+Usage: lookup_study.py [--quick] [--reference] [--rounds N] OUT_DIR
        lookup_study.py --main-job ROUNDS
-The study prints a Markdown table and writes OUT_DIR/lookup_study.json. Needs build/bin
-(scripts/setup.sh) and the maps of Debian's blender-data and the bunny of glmark2-data; the probes of
-../shared/data are used when present."""
+The study prints a Markdown table and writes OUT_DIR/lookup_study.json, beside the two tables
+and one capture set per scene (captures_K.qt, about 25-60 MB each). Needs build/bin
+(scripts/setup.sh) and the maps of Debian's blender-data and the bunny of glmark2-data; the
+probes of ../shared/data are used when present."""
 import argparse
 import json
 import os
@@ -137,23 +142,29 @@ def main():
     parser = argparse.ArgumentParser(
         description=__doc__.split("\n\n")[0], epilog="\n\n".join(__doc__.split("\n\n")[1:]),
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        usage="%(prog)s [--quick] [--reference] OUT_DIR | %(prog)s --main-job ROUNDS")
+        usage="%(prog)s [--quick] [--reference] [--rounds N] OUT_DIR | "
+              "%(prog)s --main-job ROUNDS")
     parser.add_argument("out", nargs="?", metavar="OUT_DIR", help="where the study's files go")
     parser.add_argument("--quick", action="store_true", help="200 captures a scene, not 1000")
     parser.add_argument("--reference", action="store_true",
                         help="also the lookups' error against full-resolution references")
+    parser.add_argument("--rounds", type=int, default=1, metavar="N",
+                        help="time the lookups in N rounds, each over every scene (odd; default 1)")
     parser.add_argument("--main-job", type=int, metavar="ROUNDS",
                         help="time the main job's own lookups in ROUNDS rounds instead")
     args = parser.parse_args()
     if args.main_job is not None:
         if args.main_job < 1 or args.main_job % 2 == 0:
             parser.error("--main-job needs an odd number of rounds (1, 3, 5, ...)")
-        if args.out or args.quick or args.reference:
-            parser.error("--main-job takes no OUT_DIR, --quick or --reference (it reads out/)")
+        if args.out or args.quick or args.reference or args.rounds != 1:
+            parser.error("--main-job takes no OUT_DIR, --quick, --reference or --rounds "
+                         "(it reads out/)")
         main_job(args.main_job)
         return
     if args.out is None:
         parser.error("OUT_DIR is required (or --main-job ROUNDS)")
+    if args.rounds < 1 or args.rounds % 2 == 0:
+        parser.error("--rounds needs an odd number (1, 3, 5, ...)")
     quick, reference, out = args.quick, args.reference, args.out
     os.makedirs(out, exist_ok=True)
     points = "200" if quick else "1000"
@@ -163,30 +174,44 @@ def main():
         if not os.path.exists(tables[name]):
             run([f"{BIN}/brdf2qt", os.path.join(ROOT, "data", f"{name}.json"), "-o", tables[name],
                  "-q"])
-    rows = []
+    # Every scene's captures first, then the rounds, each over every scene, so that a slow moment
+    # of the machine falls on one round of several scenes rather than on every round of one.
+    rows, capture_files = [], []
     for case, scene, env in CASES:
         if not (os.path.exists(scene) and os.path.exists(env)):
             print(f"{case}: skipped, {scene if not os.path.exists(scene) else env} is absent",
                   file=sys.stderr)
             continue
-        captures = os.path.join(out, "captures.qt")
+        captures = os.path.join(out, f"captures_{len(rows)}.qt")
         summary = json.loads(run([f"{BIN}/capture2qt", "--env", env, "--scene", scene, "--sample",
                                   points, "--seed", "1", "-o", captures, "--json"]))
         dense_bytes = int(points) * 128 * 128 * 3 * 4
-        row = {"case": case, "captures": int(points), "bytes": summary["bytes"],
-               "nodes_per_capture": summary["nodes"] / int(points),
-               "smaller": dense_bytes / summary["bytes"], "lookups": {}}
+        rows.append({"case": case, "captures": int(points), "bytes": summary["bytes"],
+                     "nodes_per_capture": summary["nodes"] / int(points),
+                     "smaller": dense_bytes / summary["bytes"], "lookups": {}})
+        capture_files.append(captures)
+        print(f"{case}: traced", file=sys.stderr)
+    timed = [{(label, accuracy): [] for label, _, _ in LOOKUPS for accuracy in ACCURACIES}
+             for _ in rows]
+    for round_index in range(args.rounds):
+        for times, captures in zip(timed, capture_files):
+            for label, name, wo in LOOKUPS:
+                for accuracy in ACCURACIES:
+                    r = convolve(tables[name], captures, wo, accuracy, True)
+                    times[label, accuracy].append(
+                        {"tree_ns": r["tree_ns_per_lookup"], "dense_ns": r["ns_per_lookup"],
+                         "speedup": r["tree_speedup"]})
+        print(f"round {round_index + 1} of {args.rounds}: done", file=sys.stderr)
+    for row, times, captures in zip(rows, timed, capture_files):
         for label, name, wo in LOOKUPS:
             for accuracy in ACCURACIES:
-                r = convolve(tables[name], captures, wo, accuracy, True)
-                entry = {"tree_ns": r["tree_ns_per_lookup"], "dense_ns": r["ns_per_lookup"],
-                         "speedup": r["tree_speedup"]}
+                rounds = sorted(times[label, accuracy], key=lambda t: t["speedup"])
+                entry = dict(rounds[len(rounds) // 2])
+                entry["speedups"] = [t["speedup"] for t in times[label, accuracy]]
                 if reference:
                     entry["error_p50"], entry["error_p99"] = errors(
                         convolve(tables[name], captures, wo, accuracy, False, True))
                 row["lookups"][f"{label}@{accuracy}"] = entry
-        rows.append(row)
-        print(f"{case}: done", file=sys.stderr)
     with open(os.path.join(out, "lookup_study.json"), "w") as f:
         json.dump(rows, f, indent=1)
     head = "| scene, map | nodes per capture | smaller than dense |"
@@ -203,6 +228,8 @@ def main():
             for accuracy in ACCURACIES:
                 e = row["lookups"][f"{label}@{accuracy}"]
                 line += f" {e['tree_ns'] / 1000:.2f} ({e['dense_ns'] / 1000:.1f}), {e['speedup']:.1f}×"
+                if len(e["speedups"]) > 1:
+                    line += f" ({span(e['speedups'], 1)}×)"
                 if "error_p50" in e:
                     line += f", err {100 * e['error_p50']:.2f} / {100 * e['error_p99']:.2f} %"
                 line += " |"
