@@ -1,9 +1,10 @@
 """Lookups on real scenes, trees against dense grids: for each scene and map, 1000 captures at the
 defaults, the main job's Phong and copper GGX tables at the main job's directions and off the
 grid's rows, and qtconvolve --dense --time (the trees and the vectorised dense products of their
-reconstructions timed in turn in one process, per lookup), at full depth and with an --accuracy
-target; plus the capture sets' size against dense grids and, with --reference, the lookups'
-error against full-resolution references.
+reconstructions timed in pairs of runs in one process, per lookup), at full depth and with an
+--accuracy target; plus the capture sets' size against dense grids and, with --reference, the
+lookups' error and certified bound against full-resolution references (the study then exits
+with an error if a bound does not hold).
 
 With --main-job ROUNDS, instead: the main job's own files (scripts/demo.sh's out/phong.qt,
 out/ggx.qt and out/captures.qt), each lookup of the README's first table (the two tables at their
@@ -202,6 +203,7 @@ def main():
                         {"tree_ns": r["tree_ns_per_lookup"], "dense_ns": r["ns_per_lookup"],
                          "speedup": r["tree_speedup"]})
         print(f"round {round_index + 1} of {args.rounds}: done", file=sys.stderr)
+    failures = []
     for row, times, captures in zip(rows, timed, capture_files):
         for label, name, wo in LOOKUPS:
             for accuracy in ACCURACIES:
@@ -209,8 +211,12 @@ def main():
                 entry = dict(rounds[len(rounds) // 2])
                 entry["speedups"] = [t["speedup"] for t in times[label, accuracy]]
                 if reference:
-                    entry["error_p50"], entry["error_p99"] = errors(
-                        convolve(tables[name], captures, wo, accuracy, False, True))
+                    r = convolve(tables[name], captures, wo, accuracy, False, True)
+                    entry["error_p50"], entry["error_p99"] = errors(r, 1e-3)
+                    held, (entry["bound_p50"], entry["bound_p99"]), entry["values"] = certified(r)
+                    entry["bound_held"] = held
+                    if not held:
+                        failures.append(f"{row['case']}, {label} at {accuracy:g}")
                 row["lookups"][f"{label}@{accuracy}"] = entry
     with open(os.path.join(out, "lookup_study.json"), "w") as f:
         json.dump(rows, f, indent=1)
@@ -231,9 +237,13 @@ def main():
                 if len(e["speedups"]) > 1:
                     line += f" ({span(e['speedups'], 1)}×)"
                 if "error_p50" in e:
-                    line += f", err {100 * e['error_p50']:.2f} / {100 * e['error_p99']:.2f} %"
+                    line += (f", error {100 * e['error_p50']:.3f} / {100 * e['error_p99']:.2f} %, "
+                             f"bound {100 * e['bound_p50']:.2f} / {100 * e['bound_p99']:.2f} % "
+                             f"({e['values']} values)")
                 line += " |"
         print(line)
+    if failures:
+        sys.exit("lookup_study: a certified bound did not hold: " + "; ".join(failures))
 
 
 if __name__ == "__main__":
