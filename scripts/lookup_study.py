@@ -20,7 +20,7 @@ round's times and ratio, with the ratios' range over the rounds.
 Usage: lookup_study.py [--quick] [--reference] [--rounds N] OUT_DIR
        lookup_study.py --main-job ROUNDS
 The study prints a Markdown table and writes OUT_DIR/lookup_study.json, beside the two tables
-and one capture set per scene (captures_K.qt, about 25-60 MB each). Needs build/bin
+and one capture set per scene (captures_K.qt, about 20-65 MB each). Needs build/bin
 (scripts/setup.sh) and the maps of Debian's blender-data and the bunny of glmark2-data; the
 probes of ../shared/data are used when present."""
 import argparse
@@ -148,8 +148,9 @@ def main():
     parser.add_argument("out", nargs="?", metavar="OUT_DIR", help="where the study's files go")
     parser.add_argument("--quick", action="store_true", help="200 captures a scene, not 1000")
     parser.add_argument("--reference", action="store_true",
-                        help="also the lookups' error against full-resolution references")
-    parser.add_argument("--rounds", type=int, default=1, metavar="N",
+                        help="also the lookups' error and certified bound against full-resolution "
+                             "references (an error exit if a bound does not hold)")
+    parser.add_argument("--rounds", type=int, metavar="N",
                         help="time the lookups in N rounds, each over every scene (odd; default 1)")
     parser.add_argument("--main-job", type=int, metavar="ROUNDS",
                         help="time the main job's own lookups in ROUNDS rounds instead")
@@ -157,13 +158,15 @@ def main():
     if args.main_job is not None:
         if args.main_job < 1 or args.main_job % 2 == 0:
             parser.error("--main-job needs an odd number of rounds (1, 3, 5, ...)")
-        if args.out or args.quick or args.reference or args.rounds != 1:
+        if args.out or args.quick or args.reference or args.rounds is not None:
             parser.error("--main-job takes no OUT_DIR, --quick, --reference or --rounds "
                          "(it reads out/)")
         main_job(args.main_job)
         return
     if args.out is None:
         parser.error("OUT_DIR is required (or --main-job ROUNDS)")
+    if args.rounds is None:
+        args.rounds = 1
     if args.rounds < 1 or args.rounds % 2 == 0:
         parser.error("--rounds needs an odd number (1, 3, 5, ...)")
     quick, reference, out = args.quick, args.reference, args.out

@@ -268,7 +268,8 @@ TEST(QtconvolveCli, WoIsADirectionWhateverItsLength) {
 }
 
 // --time measures without changing what is computed: the same results as an untimed run, and,
-// beside --dense, both sides' times and the median of the ratios of their runs taken in turn.
+// beside --dense, both sides' times and the median of the ratios of their runs, taken in pairs
+// whose order swaps from pair to pair.
 TEST(QtconvolveCli, TimingKeepsTheResultsAndReportsBothSides) {
   TempDir dir;
   make_lobe_and_sky(dir);

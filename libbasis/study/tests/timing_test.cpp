@@ -1,4 +1,5 @@
-// Timing of kernels in turn: the order of the runs, and which side each time belongs to.
+// Timing of two kernels in pairs of runs: the order of the runs, and which side each time
+// belongs to.
 #include "basis/study/timing.h"
 
 #include <gtest/gtest.h>
@@ -36,7 +37,7 @@ TEST(Timing, PairsOfRunsSwapWhichSideComesFirst) {
 
 TEST(Timing, EachSideKeepsItsOwnTimes) {
   // a takes at least 20 microseconds, b at least 2 milliseconds: whichever comes first in a
-  // pair, every time of b's is at least b's.
+  // pair, each of a's times is at least 20 microseconds and each of b's at least 2 ms.
   const AlternatingRuns runs =
       alternating_run_times_ns([] { busy_for(2e-5); }, [] { busy_for(2e-3); }, 0);
   for (const double ns : runs.a_ns)
