@@ -75,6 +75,11 @@ def convolve(table, captures, wo, accuracy, dense, reference=False):
     return json.loads(run(args))
 
 
+def middle(values, key=None):
+    """The middle one of values (odd in number) in the order of key."""
+    return sorted(values, key=key)[len(values) // 2]
+
+
 def percentiles(values):
     """Median and 99th percentile."""
     v = sorted(values)
@@ -133,7 +138,7 @@ def main_job(rounds):
         ratios = [ratio for _, _, ratio in times[case]]
         how = "full descent" if accuracy == 0 else f"`--accuracy {accuracy:g}`"
         print(f"| {label}, {how} | {entries} | {span(trees, 2)} µs | {span(dense, 1)} µs | "
-              f"{span(ratios, 1)}× | {sorted(ratios)[len(ratios) // 2]:.1f}× | "
+              f"{span(ratios, 1)}× | {middle(ratios):.1f}× | "
               f"{100 * e50:.3f} % / {100 * e99:.2f} % | "
               f"{100 * b50:.2f} % / {100 * b99:.2f} % |")
         print(f"{label} at {accuracy:g}: {count} values, every bound held", file=sys.stderr)
@@ -210,8 +215,7 @@ def main():
     for row, times, captures in zip(rows, timed, capture_files):
         for label, name, wo in LOOKUPS:
             for accuracy in ACCURACIES:
-                rounds = sorted(times[label, accuracy], key=lambda t: t["speedup"])
-                entry = dict(rounds[len(rounds) // 2])
+                entry = dict(middle(times[label, accuracy], key=lambda t: t["speedup"]))
                 entry["speedups"] = [t["speedup"] for t in times[label, accuracy]]
                 if reference:
                     r = convolve(tables[name], captures, wo, accuracy, False, True)

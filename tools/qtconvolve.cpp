@@ -1,6 +1,5 @@
 // qtconvolve: convolve .qt files. Two trees give their integral; a BRDF table and captures give
 // the reflected radiance at every capture; two capture sets give their products point by point.
-#include <array>
 #include <cstdio>
 #include <functional>
 #include <iostream>
@@ -51,12 +50,16 @@ struct Timing {
   }
 };
 
+// Whether the trees were timed beside the dense products on some results (not a shard without
+// results).
+bool timed_beside(const std::optional<Timing>& trees) {
+  return trees && trees->results > 0;
+}
+
 // How many times faster the second timing's runs were than the first's: the median of the
-// ratios of runs taken in pairs (time_in_turn), steadier than the medians' ratio; 0 when
-// nothing was timed (a shard without results).
+// ratios of runs taken in pairs (time_in_turn), steadier than the medians' ratio.
 double speedup(const Timing& slow, const Timing& fast) {
-  if (fast.results == 0) return 0;
-  std::array<double, 5> ratios;
+  basis::RunTimes ratios;
   for (std::size_t r = 0; r < ratios.size(); ++r)
     ratios[r] = slow.runs_ns[r] / fast.runs_ns[r];
   return basis::median_of(ratios);
@@ -91,7 +94,7 @@ void time_in_turn(const basis::FileConvolution& dense, const basis::FileConvolut
 // "N ns per convolution (M ns per lookup)" for the results, and for the trees beside them.
 std::string timing_text(const Timing& time, const std::optional<Timing>& trees) {
   char text[256];
-  if (!trees || trees->results == 0) {
+  if (!timed_beside(trees)) {
     std::snprintf(text, sizeof text, "%.1f ns per convolution (%.1f ns per lookup)",
                   time.ns_per_convolution(), time.ns_per_lookup());
   } else {
@@ -423,7 +426,7 @@ int main(int argc, char** argv) {
       if (tree_timing) {
         times["tree_ns_per_convolution"] = tree_timing->ns_per_convolution();
         times["tree_ns_per_lookup"] = tree_timing->ns_per_lookup();
-        if (tree_timing->results > 0) times["tree_speedup"] = speedup(*timing, *tree_timing);
+        if (timed_beside(tree_timing)) times["tree_speedup"] = speedup(*timing, *tree_timing);
       }
       std::string tail = "\n]";
       for (const auto& [key, value] : times.items())
@@ -433,7 +436,7 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "qtconvolve: %s\n", timing_text(*timing, tree_timing).c_str());
     } else if (timing) {
       out.write("# " + timing_text(*timing, tree_timing) +
-                (tree_timing && tree_timing->results > 0
+                (timed_beside(tree_timing)
                      ? ", medians of five runs, the two taken in pairs of runs\n"
                      : ", medians of repeated runs\n"));
     }
