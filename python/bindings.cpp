@@ -298,12 +298,13 @@ PYBIND11_MODULE(basis, m) {
 
   m.def(
       "convolve",
-      [](const Tree& a, const Tree& b, double accuracy) {
-        return result(convolve(a.view, b.view, {accuracy}));
+      [](const Tree& a, const Tree& b, double accuracy, bool bound) {
+        return result(convolve(a.view, b.view, {accuracy, bound}));
       },
-      py::arg("a"), py::arg("b"), py::arg("accuracy") = 0.0,
+      py::arg("a"), py::arg("b"), py::arg("accuracy") = 0.0, py::arg("bound") = true,
       "The integral over the unit square of a * b and its certified bound, as (value, bound) "
-      "RGB arrays (the hemisphere integral of A B cos is pi times it).");
+      "RGB arrays (the hemisphere integral of A B cos is pi times it). bound=False: the same "
+      "value, faster, and a bound of inf (not with an accuracy target).");
 
   py::class_<Table>(m, "Table", "A BRDF table: quadtrees over wi at a parabolic grid of wo.")
       .def_property_readonly("wo_resolution", [](const Table& t) { return t.view.wo_resolution; })
@@ -473,13 +474,14 @@ PYBIND11_MODULE(basis, m) {
   m.def(
       "reflect",
       [](const Table& table, const Tree& radiance, const std::array<double, 3>& wo, double accuracy,
-         const std::string& interpolation) {
+         const std::string& interpolation, bool bound) {
         return result(reflect(table.view, radiance.view, to_direction(to_vec3(wo), "wo"),
-                              {{accuracy}, interpolation_of(interpolation)}));
+                              {{accuracy, bound}, interpolation_of(interpolation)}));
       },
       py::arg("table"), py::arg("radiance"), py::arg("wo") = std::array<double, 3>{0, 0, 1},
-      py::arg("accuracy") = 0.0, py::arg("interpolation") = "hermite",
-      "Reflected radiance towards wo (pi included) of one radiance tree, and its bound.");
+      py::arg("accuracy") = 0.0, py::arg("interpolation") = "hermite", py::arg("bound") = true,
+      "Reflected radiance towards wo (pi included) of one radiance tree, and its bound (inf with "
+      "bound=False: the same value, faster).");
 
   m.def(
       "reflect_tilted",
@@ -504,12 +506,13 @@ PYBIND11_MODULE(basis, m) {
   m.def(
       "shade",
       [](const Table& table, const Captures& captures, const std::array<double, 3>& wo,
-         double accuracy, const std::string& interpolation) {
+         double accuracy, const std::string& interpolation, bool bound) {
         const std::optional<Brdf> brdf = table_brdf_of(table);
         ShadingOptions options;
         options.wo = to_direction(to_vec3(wo), "wo");
         options.light_brdf = brdf ? &*brdf : nullptr;
         options.convolution.accuracy = accuracy;
+        options.convolution.bound = bound;
         options.interpolation = interpolation_of(interpolation);
         // One wo for every capture: the entries around it are found and folded once.
         const EntriesAtWo entries =
@@ -533,11 +536,12 @@ PYBIND11_MODULE(basis, m) {
         return py::make_tuple(values, bounds);
       },
       py::arg("table"), py::arg("captures"), py::arg("wo") = std::array<double, 3>{0, 0, 1},
-      py::arg("accuracy") = 0.0, py::arg("interpolation") = "hermite",
+      py::arg("accuracy") = 0.0, py::arg("interpolation") = "hermite", py::arg("bound") = true,
       "Reflected radiance towards wo (each capture's frame) at every capture, with the lights "
       "it keeps apart shaded by the table's BRDF (rebuilt from its spec; the table's texels "
       "when that fails): (values, bounds), N x 3 arrays. What qtconvolve TABLE CAPTURES "
-      "prints.");
+      "prints. bound=False: the same values, faster, and bounds of inf (qtconvolve "
+      "--no-bound).");
 
   m.def(
       "capture",

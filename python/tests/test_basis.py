@@ -87,6 +87,12 @@ def test_convolution_matches_the_texels_within_its_bound():
     assert np.all(np.abs(value - texels) <= bound * (1 + 1e-4) + 1e-6)
     dense = (ta.reconstruct()[0] * tb.reconstruct()[0]).reshape(3, -1).mean(axis=1)
     np.testing.assert_allclose(value, dense, rtol=1e-3)
+    # Without the bound: the same descent's value, and nothing certified.
+    alone, none = basis.convolve(ta, tb, bound=False)
+    np.testing.assert_array_equal(alone, value)
+    assert np.all(np.isinf(none))
+    with pytest.raises(ValueError, match="accuracy target"):
+        basis.convolve(ta, tb, accuracy=0.1, bound=False)
 
 
 def test_files_made_by_the_tools_shade_as_qtconvolve_does(made_by_tools):
@@ -106,6 +112,10 @@ def test_files_made_by_the_tools_shade_as_qtconvolve_does(made_by_tools):
         expected, expected_bounds = qtconvolve_json(d / "phong.qt", d / "captures.qt", *args)
         np.testing.assert_allclose(values, expected, rtol=1e-5)
         np.testing.assert_allclose(bounds, expected_bounds, rtol=1e-3, atol=1e-7)
+        alone, none = basis.shade(table.table(), captures.captures(), wo, interpolation=mode,
+                                  bound=False)
+        np.testing.assert_array_equal(alone, values)
+        assert np.all(np.isinf(none))
 
 
 def test_files_written_here_are_read_by_the_tools(made_by_tools, tmp_path):

@@ -138,8 +138,13 @@ TEST(QtconvolveCli, CertifiedBoundHoldsAgainstTheFullResolutionReference) {
       // the table at wo) gives the trees' values up to their halves' rounding.
       const auto dense = convolve_json(
           dir, {"glossy.qt", "points.qt", "--wo", wo, "--dense", "--lights", lights, "-q"});
+      // Values alone: the same descent, so the same values, and no bound printed.
+      const auto alone = convolve_json(
+          dir, {"glossy.qt", "points.qt", "--wo", wo, "--no-bound", "--lights", lights, "-q"});
       for (std::size_t k = 0; k < 24; ++k) {
         const auto& r = j["results"][k];
+        EXPECT_EQ(alone["results"][k]["value"], r["value"]) << "point " << k << " wo " << wo;
+        EXPECT_FALSE(alone["results"][k].contains("bound"));
         for (int c = 0; c < 3; ++c) {
           const double difference = std::abs(r["difference"][c].get<double>());
           const double bound = r["bound"][c].get<double>();
@@ -267,29 +272,31 @@ TEST(QtconvolveCli, WoIsADirectionWhateverItsLength) {
   EXPECT_NEAR(glossy("6e-301,0,8e-301"), towards_wo, 1e-6 * towards_wo);
 }
 
-// --time measures without changing what is computed: the same results as an untimed run, and,
-// beside --dense, both sides' times and the median of the ratios of their runs, taken in pairs
-// whose order swaps from pair to pair.
+// --time measures without changing what is computed (with the bound or without): the same
+// results as an untimed run, and, beside --dense, both sides' times and the median of the ratios of
+// their runs, taken in pairs whose order swaps from pair to pair.
 TEST(QtconvolveCli, TimingKeepsTheResultsAndReportsBothSides) {
   TempDir dir;
   make_lobe_and_sky(dir);
   if (::testing::Test::HasFatalFailure()) return;
-  for (const bool dense : {false, true}) {
-    std::vector<std::string> args = {"p.qt", "sky.qt", "--wo", "0.6,0,0.8"};
-    if (dense) args.push_back("--dense");
-    const auto untimed = convolve_json(dir, args);
-    args.push_back("--time");
-    const auto timed = convolve_json(dir, args);
-    EXPECT_EQ(timed["results"], untimed["results"]) << "dense " << dense;
-    EXPECT_GT(timed["ns_per_lookup"].get<double>(), 0);
-    EXPECT_EQ(timed.contains("tree_ns_per_lookup"), dense);
-    EXPECT_EQ(timed.contains("tree_speedup"), dense);
-    if (dense) {
-      EXPECT_GT(timed["tree_ns_per_lookup"].get<double>(), 0);
-      const double speedup = timed["tree_speedup"].get<double>();
-      EXPECT_TRUE(std::isfinite(speedup) && speedup > 0) << speedup;
+  for (const bool dense : {false, true})
+    for (const bool alone : {false, true}) {
+      std::vector<std::string> args = {"p.qt", "sky.qt", "--wo", "0.6,0,0.8"};
+      if (dense) args.push_back("--dense");
+      if (alone) args.push_back("--no-bound");
+      const auto untimed = convolve_json(dir, args);
+      args.push_back("--time");
+      const auto timed = convolve_json(dir, args);
+      EXPECT_EQ(timed["results"], untimed["results"]) << "dense " << dense;
+      EXPECT_GT(timed["ns_per_lookup"].get<double>(), 0);
+      EXPECT_EQ(timed.contains("tree_ns_per_lookup"), dense);
+      EXPECT_EQ(timed.contains("tree_speedup"), dense);
+      if (dense) {
+        EXPECT_GT(timed["tree_ns_per_lookup"].get<double>(), 0);
+        const double speedup = timed["tree_speedup"].get<double>();
+        EXPECT_TRUE(std::isfinite(speedup) && speedup > 0) << speedup;
+      }
     }
-  }
 }
 
 TEST(QtconvolveCli, MismatchedInputsAreClearErrors) {
@@ -327,6 +334,7 @@ TEST(QtconvolveCli, MismatchedInputsAreClearErrors) {
                                          {{"one.qt", "one.qt", "--reference"}, 2},
                                          {{"one.qt", "one.qt", "--wo", "0,1,1"}, 2},
                                          {{"l.qt", "one.qt", "--json", "--csv"}, 2},
+                                         {{"l.qt", "one.qt", "--no-bound", "--accuracy", "0.1"}, 2},
                                          {{"l.qt", "missing.qt"}, 1},
                                          {{"l.qt"}, 2}}) {
     const auto r = run_tool("qtconvolve", k.args, dir.path());

@@ -3,6 +3,7 @@
 #include <bit>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
@@ -364,7 +365,10 @@ __m128 linf_terms(const DescentConstants<CA, CB>& k, __m128 term, __m128 sa, __m
 // one function (GW > 1: weighted convolutions). kFolded: a is a folded tree (folded_tree.h):
 // group 0 its values and live bounds, group 1 half the magnitudes its rounding scales with and
 // the bounds of the terms that stop where the sum goes on, added on internal quadrants.
-template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB, bool kFolded = false>
+// kBound: the bound is summed; without it a pair adds its values alone (the same sums), and
+// the bound's arithmetic is left out.
+template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB, bool kFolded = false,
+          bool kBound = true>
 struct NarrowPairs {
   static constexpr int C = CA > CB ? CA : CB;
   struct Sums {
@@ -511,7 +515,7 @@ struct NarrowPairs {
         term[c] =
             linf_terms<kLinfA, kLinfB>(k, term[c], a.bound, b.bound, a.magnitude, b.magnitude);
     }
-    if (k.targeted) {
+    if (kBound && k.targeted) {
       __m128 enough = _mm_castsi128_ps(_mm_set1_epi32(-1));
       for (int c = 0; c < C; ++c) {
         __m128 allowed;
@@ -527,7 +531,7 @@ struct NarrowPairs {
       internal &= ~unsigned(_mm_movemask_ps(enough));
     }
     const __m128 internal_lanes = lanes_of(internal);
-    if constexpr (kFolded)
+    if constexpr (kFolded && kBound)
       for (int c = 0; c < C; ++c)
         sums.bound[c] = _mm_add_ps(sums.bound[c], _mm_and_ps(internal_lanes, term_on[c]));
     for (int c = 0; c < C; ++c) {
@@ -537,6 +541,7 @@ struct NarrowPairs {
         sums.value[g][c] =
             _mm_add_ps(sums.value[g][c], _mm_andnot_ps(internal_lanes, _mm_mul_ps(vg, vb[c])));
       }
+      if constexpr (!kBound) continue;
       sums.bound[c] = _mm_add_ps(sums.bound[c], _mm_andnot_ps(internal_lanes, term[c]));
       sums.magnitude[c] =
           _mm_add_ps(sums.magnitude[c], _mm_andnot_ps(internal_lanes, magnitude[c]));
@@ -580,9 +585,10 @@ __m512 linf_terms(const DescentConstants<CA, CB>& k, __m512 term, __m512 sa, __m
 
 // Per-pair arithmetic on AVX-512 registers: the four quadrants of all three channels in one
 // register (lanes 4c .. 4c + 3 hold channel c), a grey side repeated in all three.
-// kSharedWordsB: b's values are known to be shared-exponent words (else the tree says).
+// kSharedWordsB: b's values are known to be shared-exponent words (else the tree says). kBound:
+// as NarrowPairs'.
 template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB, bool kFolded = false,
-          bool kSharedWordsB = false>
+          bool kSharedWordsB = false, bool kBound = true>
 struct WidePairs {
   static constexpr int C = 3;
   static constexpr __mmask16 kLanes = 0x0fff;
@@ -732,7 +738,7 @@ struct WidePairs {
     __m512 term = _mm512_mul_ps(a.bound, b.bound);
     if constexpr (kLinfA || kLinfB)
       term = linf_terms<kLinfA, kLinfB>(k, term, a.bound, b.bound, a.magnitude, b.magnitude);
-    if (k.targeted) {
+    if (kBound && k.targeted) {
       __m512 per_pair;
       if (GW == 1 && !kFolded && !k.shared_a && !k.shared_b)
         per_pair = _mm512_mul_ps(_mm512_set1_ps(k.per_product), abs512(product));
@@ -753,6 +759,7 @@ struct WidePairs {
     for (int g = 1; g < GA; ++g)
       sums.value[g] = _mm512_mask_add_ps(sums.value[g], stop, sums.value[g],
                                          _mm512_mul_ps(values(values_a, CA, g), b.value));
+    if constexpr (!kBound) return internal;
     sums.bound = _mm512_mask_add_ps(sums.bound, stop, sums.bound, term);
     if constexpr (kFolded)
       sums.bound =
@@ -912,18 +919,20 @@ class PackedDescent {
 };
 
 // floor_weight > 0: a is a folded tree (folded_tree.h) whose terms' rounding that weight covers.
-// kSharedWordsB: b's values are shared-exponent words (WidePairs).
+// kSharedWordsB: b's values are shared-exponent words (WidePairs). Without kBound, the values
+// alone (the same sums) and a bound of +infinity.
 template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB, bool kFolded = false,
-          bool kSharedWordsB = false>
+          bool kSharedWordsB = false, bool kBound = true>
 GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, double accuracy,
                               std::span<const float> weights, float floor_weight = 0) {
   constexpr int C = CA > CB ? CA : CB;
 #if defined(__AVX512F__) && defined(__AVX512BW__) && defined(__AVX512VL__)
   using Pairs =
-      std::conditional_t<C == 3, WidePairs<CA, CB, GA, GW, kLinfA, kLinfB, kFolded, kSharedWordsB>,
-                         NarrowPairs<CA, CB, GA, GW, kLinfA, kLinfB, kFolded>>;
+      std::conditional_t<C == 3,
+                         WidePairs<CA, CB, GA, GW, kLinfA, kLinfB, kFolded, kSharedWordsB, kBound>,
+                         NarrowPairs<CA, CB, GA, GW, kLinfA, kLinfB, kFolded, kBound>>;
 #else
-  using Pairs = NarrowPairs<CA, CB, GA, GW, kLinfA, kLinfB, kFolded>;
+  using Pairs = NarrowPairs<CA, CB, GA, GW, kLinfA, kLinfB, kFolded, kBound>;
 #endif
   PackedDescent<Pairs, CA, CB> descent(a, b, accuracy, weights);
   if constexpr (kFolded) descent.fold(floor_weight);
@@ -934,6 +943,10 @@ GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, 
     const int lane = C == 1 ? 0 : c;
     for (int g = 0; g < GA; ++g)
       result.value[g][c] = sums.value_of(g, lane) * k.value_scale;
+    if constexpr (!kBound) {
+      result.bound[c] = std::numeric_limits<float>::infinity();
+      continue;
+    }
     result.bound[c] =
         float(double(sums.bound_of(lane)) * k.bound_scale +
               (kRoundingPerMagnitude * sums.magnitude_of(lane) + kRoundingFloor * k.total_weight) *
@@ -942,28 +955,33 @@ GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, 
   return result;
 }
 
-// kFolded: a is a folded tree (l2 bounds) whose terms' rounding floor_weight covers.
-template <int GA, int GW, bool kFolded = false>
+// kFolded: a is a folded tree (l2 bounds) whose terms' rounding floor_weight covers. kBound:
+// see descend_simd.
+template <int GA, int GW, bool kFolded = false, bool kBound = true>
 GroupConvolution dispatch_simd(const PackedTreeView& a, const PackedTreeView& b, double accuracy,
                                std::span<const float> weights, float floor_weight = 0) {
   const int ca = a.shape().channels, cb = b.shape().channels;
   const bool la = a.shape().bounds == BoundKind::linf, lb = b.shape().bounds == BoundKind::linf;
   auto by_kinds = [&]<int CA, int CB>() {
     if constexpr (!kFolded) {
-      if (la && lb) return descend_simd<CA, CB, GA, GW, true, true>(a, b, accuracy, weights);
-      if (la) return descend_simd<CA, CB, GA, GW, true, false>(a, b, accuracy, weights);
+      if (la && lb)
+        return descend_simd<CA, CB, GA, GW, true, true, false, false, kBound>(a, b, accuracy,
+                                                                              weights);
+      if (la)
+        return descend_simd<CA, CB, GA, GW, true, false, false, false, kBound>(a, b, accuracy,
+                                                                               weights);
     }
     if (lb)
-      return descend_simd<CA, CB, GA, GW, false, true, kFolded>(a, b, accuracy, weights,
-                                                                floor_weight);
+      return descend_simd<CA, CB, GA, GW, false, true, kFolded, false, kBound>(
+          a, b, accuracy, weights, floor_weight);
     // A batch's folded lookups against captures (shared-exponent words, RGB): the encoding
     // known at compile time spares every pair a branch and the merge of its two sides.
     if constexpr (kFolded && CB == 3)
       if (b.shape().shared_values())
-        return descend_simd<CA, CB, GA, GW, false, false, true, true>(a, b, accuracy, weights,
-                                                                      floor_weight);
-    return descend_simd<CA, CB, GA, GW, false, false, kFolded>(a, b, accuracy, weights,
-                                                               floor_weight);
+        return descend_simd<CA, CB, GA, GW, false, false, true, true, kBound>(
+            a, b, accuracy, weights, floor_weight);
+    return descend_simd<CA, CB, GA, GW, false, false, kFolded, false, kBound>(
+        a, b, accuracy, weights, floor_weight);
   };
   if (ca == 1 && cb == 1) return by_kinds.template operator()<1, 1>();
   if (ca == 1) return by_kinds.template operator()<1, 3>();
@@ -982,10 +1000,12 @@ GroupConvolution dispatch_simd(const PackedTreeView& a, const PackedTreeView& b,
   return g;
 }
 
+// With `bound` false, one group's value alone (the same sums) and a bound of +infinity.
 GroupConvolution dispatch(const PackedTreeView& a, const PackedTreeView& b, int groups,
-                          double accuracy) {
+                          double accuracy, bool bound = true) {
 #if defined(__SSE4_1__) && defined(__F16C__)
   check_compatible(a.shape(), b.shape());
+  if (!bound && groups == 1) return dispatch_simd<1, 1, false, false>(a, b, accuracy, {});
   switch (groups) {
     case 1:
       return dispatch_simd<1, 1>(a, b, accuracy, {});
@@ -1008,21 +1028,38 @@ void check_weights(const PackedTreeView& a, std::span<const float> weights) {
     if (!std::isfinite(w)) throw std::invalid_argument("a group weight is not finite");
 }
 
+// An accuracy target stops on the bound: it cannot go without one.
+void check_options(const ConvolutionOptions& options) {
+  if (!options.bound && options.accuracy > 0)
+    throw std::invalid_argument("an accuracy target needs the certified bound it stops on");
+}
+
+// Group 0 of g; its bound +infinity without options.bound (for the paths that computed it).
+Convolution result_of(const GroupConvolution& g, const ConvolutionOptions& options) {
+  constexpr float kNone = std::numeric_limits<float>::infinity();
+  if (!options.bound) return {g.value[0], {kNone, kNone, kNone}};
+  return {g.value[0], g.bound};
+}
+
 }  // namespace
 
 Convolution convolve(const PackedTreeView& a, const PackedTreeView& b,
                      const ConvolutionOptions& options) {
-  const GroupConvolution g = dispatch(a, b, 1, options.accuracy);
-  return {g.value[0], g.bound};
+  check_options(options);
+  return result_of(dispatch(a, b, 1, options.accuracy, options.bound), options);
 }
 
 Convolution convolve(const FoldedTree& a, const PackedTreeView& b,
                      const ConvolutionOptions& options) {
   check_compatible(a.tree.shape, b.shape());
+  check_options(options);
 #if defined(__SSE4_1__) && defined(__F16C__)
-  const GroupConvolution g =
-      dispatch_simd<1, 1, true>(a.tree.view(), b, options.accuracy, {}, a.floor_weight);
-  return {g.value[0], g.bound};
+  if (!options.bound)
+    return result_of(
+        dispatch_simd<1, 1, true, false>(a.tree.view(), b, options.accuracy, {}, a.floor_weight),
+        options);
+  return result_of(
+      dispatch_simd<1, 1, true>(a.tree.view(), b, options.accuracy, {}, a.floor_weight), options);
 #else
   (void)options;
   throw std::logic_error("convolving a folded tree needs SSE4.1 and F16C (folding_available())");
@@ -1031,37 +1068,43 @@ Convolution convolve(const FoldedTree& a, const PackedTreeView& b,
 
 Convolution convolve_scalar(const PackedTreeView& a, const PackedTreeView& b,
                             const ConvolutionOptions& options) {
-  const GroupConvolution g = scalar(a, b, 1, options.accuracy);
-  return {g.value[0], g.bound};
+  check_options(options);
+  return result_of(scalar(a, b, 1, options.accuracy), options);
 }
 
 Convolution convolve_weighted(const PackedTreeView& a, std::span<const float> weights,
                               const PackedTreeView& b, const ConvolutionOptions& options) {
   check_weights(a, weights);
+  check_options(options);
 #if defined(__SSE4_1__) && defined(__F16C__)
   check_compatible(a.shape(), b.shape());
+  const double accuracy = options.accuracy;
   GroupConvolution g;
   switch (weights.size()) {
     case 1:
-      g = scalar_weight_of(dispatch_simd<1, 1>(a, b, options.accuracy, {}), weights[0]);
+      g = scalar_weight_of(options.bound ? dispatch_simd<1, 1>(a, b, accuracy, {})
+                                         : dispatch_simd<1, 1, false, false>(a, b, accuracy, {}),
+                           weights[0]);
       break;
     case 2:
-      g = dispatch_simd<1, 2>(a, b, options.accuracy, weights);
+      g = options.bound ? dispatch_simd<1, 2>(a, b, accuracy, weights)
+                        : dispatch_simd<1, 2, false, false>(a, b, accuracy, weights);
       break;
     default:
-      g = dispatch_simd<1, 3>(a, b, options.accuracy, weights);
+      g = options.bound ? dispatch_simd<1, 3>(a, b, accuracy, weights)
+                        : dispatch_simd<1, 3, false, false>(a, b, accuracy, weights);
   }
 #else
   const GroupConvolution g = scalar(a, b, 1, options.accuracy, weights);
 #endif
-  return {g.value[0], g.bound};
+  return result_of(g, options);
 }
 
 Convolution convolve_weighted_scalar(const PackedTreeView& a, std::span<const float> weights,
                                      const PackedTreeView& b, const ConvolutionOptions& options) {
   check_weights(a, weights);
-  const GroupConvolution g = scalar(a, b, 1, options.accuracy, weights);
-  return {g.value[0], g.bound};
+  check_options(options);
+  return result_of(scalar(a, b, 1, options.accuracy, weights), options);
 }
 
 GroupConvolution convolve_groups(const PackedTreeView& a, const PackedTreeView& b) {

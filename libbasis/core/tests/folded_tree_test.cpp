@@ -1,10 +1,11 @@
 // Folded trees: a weighted sum of trees folded into one convolves to the dense product of the
 // terms' texels within its bound, to the terms' own descents' values and, up to the rounding up
-// of the folded bound codes, their summed bounds; accuracy targets keep the bound; what cannot
-// fold is refused.
+// of the folded bound codes, their summed bounds; accuracy targets keep the bound; values alone
+// are the certified descent's; what cannot fold is refused.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "basis/core/folded_tree.h"
@@ -94,6 +95,10 @@ TEST(FoldedTree, WithinTheBoundOfTheTexelsAndAtMostTheTermsBounds) {
                         result.bound[c] * (1 + 1e-4) + 1e-6 * magnitude)
                   << what << " channel " << c << " bound " << result.bound[c];
               if (accuracy != 0) continue;
+              // Values alone: the same descent's value, to the bit, and nothing certified.
+              const Convolution alone = convolve(folded, b.view(), {.bound = false});
+              EXPECT_EQ(alone.value[c], result.value[c]) << what << " channel " << c;
+              EXPECT_EQ(alone.bound[c], std::numeric_limits<float>::infinity()) << what;
               // The terms' own descents: the same value up to halves' rounding (the folded sum's,
               // and shared-exponent quadrants read at other levels), and a bound at most theirs
               // but for the folded codes' rounding up (1/8 at most) and the folded sum's own
@@ -231,6 +236,11 @@ TEST(FoldedTree, RefusesWhatCannotFold) {
   EXPECT_THROW(folds({{l2.view(), {1, 0, 0}, 1}, {other_resolution.view(), {1, 0, 0}, 1}}),
                std::invalid_argument);
   EXPECT_THROW(folds({{l2.view(), {NAN, 0, 0}, 1}}), std::invalid_argument);
+  // An accuracy target stops on the bound: not without one.
+  const FoldedTree folded = fold(std::vector<WeightedTerm>{{l2.view(), {1, 0.5f, 0.25f}, 3}});
+  const PackedTree capture = pack(project(test_functions(16, 1, 58)[1].grid, {}));
+  EXPECT_THROW(convolve(folded, capture.view(), {.accuracy = 0.1, .bound = false}),
+               std::invalid_argument);
 }
 
 }  // namespace

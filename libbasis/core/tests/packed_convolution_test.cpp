@@ -1,11 +1,12 @@
 // Convolution of packed trees: the packed trees' product to half precision, the full-resolution
 // product within the certified bound for every kind of bound, with and without texel nodes of
-// values alone (exact texels), SIMD equal to scalar,
-// accuracy-targeted descents within their bounds and no looser than the target allows, channel
-// groups, and groups combined with weights (signed) within their bound.
+// values alone (exact texels), SIMD equal to scalar, values without the bound equal to the
+// certified descents', accuracy-targeted descents within their bounds and no looser than the
+// target allows, channel groups, and groups combined with weights (signed) within their bound.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "basis/core/convolution.h"
@@ -22,6 +23,20 @@ using testing::three_groups;
 
 double relative_gap(double a, double b) {
   return std::abs(a - b) / std::max({std::abs(a), std::abs(b), 1e-30});
+}
+
+// Channel c of the integral over [0,1]^2 of the product of group 0 of two grids (a grey grid
+// counting for every channel), in double: at the finer resolution, each texel of the coarser
+// repeated over the finer's texels it covers.
+double grid_product(const Grid& a, const Grid& b, int c) {
+  const int n = std::max(a.resolution, b.resolution);
+  const int sa = n / a.resolution, sb = n / b.resolution;
+  const int ca = a.channels == 1 ? 0 : c, cb = b.channels == 1 ? 0 : c;
+  double sum = 0;
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x)
+      sum += double(a.at(0, ca, x / sa, y / sa)) * b.at(0, cb, x / sb, y / sb);
+  return sum / (double(n) * n);
 }
 
 struct Shapes {
@@ -64,24 +79,17 @@ TEST_P(PackedConvolution, WithinTheBoundOfTheTexelsAndHalfPrecisionOfTheTrees) {
                 a.shape.shared_values() || b.shape.shared_values() ? 4e-3 : 1e-3;
             const Convolution simd = convolve(a.view(), b.view());
             const Convolution scalar = convolve_scalar(a.view(), b.view());
+            // Values alone: the same descents without the bound's arithmetic.
+            const Convolution alone = convolve(a.view(), b.view(), {.bound = false});
+            const Convolution scalar_alone = convolve_scalar(a.view(), b.view(), {.bound = false});
             // The dense product of the packed trees' reconstructions, to half precision: a
             // descent that stops at a leaf of one tree takes the other's quadrant value, rounded
             // to a half on its own rather than as the mean of its children's halves.
             const Grid ra = reconstruct(a.view()), rb = reconstruct(b.view());
-            // The full-resolution product of the source texels, at the finer resolution.
-            const int n = std::max(k.res_a, k.res_b);
             for (int c = 0; c < 3; ++c) {
-              const int ca = k.channels_a == 1 ? 0 : c, cb = k.channels_b == 1 ? 0 : c;
-              double packed = 0, texels = 0;
-              for (int y = 0; y < n; ++y)
-                for (int x = 0; x < n; ++x) {
-                  const int sa = n / k.res_a, sb = n / k.res_b;
-                  packed += double(ra.at(0, ca, x / sa, y / sa)) * rb.at(0, cb, x / sb, y / sb);
-                  texels +=
-                      double(grid_a.at(0, ca, x / sa, y / sa)) * grid_b.at(0, cb, x / sb, y / sb);
-                }
-              packed /= double(n) * n;
-              texels /= double(n) * n;
+              // The full-resolution product of the source texels.
+              const double packed = grid_product(ra, rb, c),
+                           texels = grid_product(grid_a, grid_b, c);
               EXPECT_LT(relative_gap(simd.value[c], packed), rounding_gap) << what;
               EXPECT_LE(std::abs(simd.value[c] - texels),
                         simd.bound[c] * (1 + 1e-4) + 1e-6 * texels)
@@ -89,6 +97,11 @@ TEST_P(PackedConvolution, WithinTheBoundOfTheTexelsAndHalfPrecisionOfTheTrees) {
               // SIMD sums in float, the scalar descent in double: up to 16,384 pairs at 128^2.
               EXPECT_LT(relative_gap(simd.value[c], scalar.value[c]), 2e-6) << what;
               EXPECT_LT(relative_gap(simd.bound[c], scalar.bound[c]), 1e-5) << what;
+              // The same value to the bit, and nothing certified.
+              EXPECT_EQ(alone.value[c], simd.value[c]) << what;
+              EXPECT_EQ(scalar_alone.value[c], scalar.value[c]) << what;
+              EXPECT_EQ(alone.bound[c], std::numeric_limits<float>::infinity()) << what;
+              EXPECT_EQ(scalar_alone.bound[c], std::numeric_limits<float>::infinity()) << what;
             }
           }
 }
@@ -215,6 +228,11 @@ TEST(PackedConvolution, WeightedGroupsLieWithinTheirBoundOfTheTexels) {
                               r.bound[c] * (1 + 1e-4) + 1e-6 * magnitude)
                         << what << " bound " << r.bound[c];
                   if (accuracy == 0) {
+                    // Values alone: the same descent's value, to the bit.
+                    const Convolution alone =
+                        convolve_weighted(a.view(), w, b.view(), {.bound = false});
+                    EXPECT_EQ(alone.value[c], simd.value[c]) << what;
+                    EXPECT_EQ(alone.bound[c], std::numeric_limits<float>::infinity()) << what;
                     EXPECT_LT(std::abs(simd.value[c] - scalar.value[c]), 1e-6 * magnitude) << what;
                     EXPECT_LT(relative_gap(simd.bound[c], scalar.bound[c]), 1e-5) << what;
                   }
@@ -314,6 +332,21 @@ TEST(PackedConvolution, SharedExponentRoundingStaysWithinTheBound) {
         }
       }
   }
+}
+
+// An accuracy target stops on the bound: asking for one without the bound is an error, on
+// every path.
+TEST(PackedConvolution, AnAccuracyTargetNeedsTheBound) {
+  const auto functions = test_functions(16, 1, 37);
+  const PackedTree a = pack(project(functions[1].grid, {.tolerance = 0.05}));
+  const PackedTree b = pack(project(functions[2].grid, {.tolerance = 0.05}));
+  const ConvolutionOptions both{.accuracy = 0.05, .bound = false};
+  const float w[1] = {1};
+  EXPECT_THROW(convolve(a.view(), b.view(), both), std::invalid_argument);
+  EXPECT_THROW(convolve_scalar(a.view(), b.view(), both), std::invalid_argument);
+  EXPECT_THROW(convolve_weighted(a.view(), w, b.view(), both), std::invalid_argument);
+  EXPECT_THROW(convolve_weighted_scalar(a.view(), w, b.view(), both), std::invalid_argument);
+  EXPECT_NO_THROW(convolve(a.view(), b.view(), {.accuracy = 0.05}));
 }
 
 }  // namespace

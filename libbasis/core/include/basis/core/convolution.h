@@ -62,6 +62,11 @@ struct ConvolutionOptions {
   // (value + E): the reported bound stays within about `accuracy` of the value (plus what the
   // leaves contribute). 0 descends to the leaves.
   double accuracy = 0;
+  // Whether to certify: false gives the value alone, from the same descent (the same pairs and
+  // sums, so the same value to the bit), without the bound's arithmetic, and a bound of
+  // +infinity in every channel (nothing certified). An accuracy target stops on the bound, so
+  // it needs one (std::invalid_argument otherwise).
+  bool bound = true;
 };
 
 // The integral over [0,1]^2 of a * b (group 0 of both), as convolve() does for float trees, on
