@@ -1,8 +1,9 @@
 // Lookups on real data, cold: the main job's tables against its 1000 captures read from a file
-// (main_job_data.h), by the trees (full descents and accuracy targets) and by vectorised dense
-// products of the trees' reconstructions, side by side. Also one capture repeated (hot), to
-// tell the cost of the descent from the cost of reaching memory; and lookups between entries,
-// Hermite against bilinear in the same tables and against the first version's tables.
+// (main_job_data.h), by the trees (full descents, values without the bound, and accuracy
+// targets) and by vectorised dense products of the trees' reconstructions, side by side. Also
+// one capture repeated (hot), to tell the cost of the descent from the cost of reaching memory;
+// and lookups between entries, Hermite against bilinear in the same tables and against the
+// first version's tables.
 #include <benchmark/benchmark.h>
 
 #include "basis/lighting/shading.h"
@@ -22,9 +23,10 @@ Lookup main_job_lookup(int which) {
                     : Lookup{"ggx", Vec3(0.5, 0, 0.866).normalized()};
 }
 
-// Arguments: table (0 Phong, 1 GGX), accuracy in thousandths, hot (1: capture 0 repeated), and
+// Arguments: table (0 Phong, 1 GGX), accuracy in thousandths, hot (1: capture 0 repeated),
 // where the captures' sun takes f from: 0 the table's BRDF evaluated (what qtconvolve does by
-// default), 1 the table's texels (qtconvolve --lights table).
+// default), 1 the table's texels (qtconvolve --lights table), and values_only (1: without the
+// bound, qtconvolve --no-bound).
 void BM_TreeLookups(benchmark::State& state) {
   const Lookup lookup = main_job_lookup(int(state.range(0)));
   const BrdfTableView table = main_job_file(lookup.table).brdf_table();
@@ -34,6 +36,7 @@ void BM_TreeLookups(benchmark::State& state) {
   options.wo = lookup.wo;
   options.convolution.accuracy = double(state.range(1)) / 1000;
   options.light_brdf = state.range(3) == 0 ? &spec.brdf : nullptr;
+  options.convolution.bound = state.range(4) == 0;
   const bool hot = state.range(2) != 0;
   // The entries around wo, found and folded once as the dense lookup builds its grid once.
   const EntriesAtWo entries =
@@ -45,11 +48,12 @@ void BM_TreeLookups(benchmark::State& state) {
 }
 BENCHMARK(BM_TreeLookups)
     ->Name("lookup/trees")
-    ->ArgNames({"ggx", "accuracy_permille", "hot", "table_lights"})
-    ->ArgsProduct({{0, 1}, {0, 10, 50, 100}, {0, 1}, {0}})
-    ->Args({0, 0, 0, 1})
-    ->Args({1, 0, 0, 1})
-    ->Args({1, 100, 0, 1})
+    ->ArgNames({"ggx", "accuracy_permille", "hot", "table_lights", "values_only"})
+    ->ArgsProduct({{0, 1}, {0, 10, 50, 100}, {0, 1}, {0}, {0}})
+    ->ArgsProduct({{0, 1}, {0}, {0, 1}, {0}, {1}})
+    ->Args({0, 0, 0, 1, 0})
+    ->Args({1, 0, 0, 1, 0})
+    ->Args({1, 100, 0, 1, 0})
     ->Unit(benchmark::kMillisecond);
 
 // The captures' sun takes f from the table's BRDF, as qtconvolve --dense does by default.
