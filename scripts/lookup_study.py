@@ -4,8 +4,8 @@ grid's rows, and qtconvolve --dense --time (the trees and the vectorised dense p
 reconstructions timed in pairs of runs in one process, per lookup), at full depth and with an
 --accuracy target; plus the capture sets' size against dense grids and, with --reference, the
 lookups' error and certified bound against full-resolution references (the study then exits
-with an error if a bound does not hold). With --no-bound, the full descents without their bound
-(qtconvolve --no-bound) alone, in place of those two.
+with an error if a bound does not hold). With --no-bound, the full descents with their bound and
+without it (qtconvolve --no-bound), in place of the full and targeted ones.
 
 With --main-job ROUNDS, instead: the main job's own files (scripts/demo.sh's out/phong.qt,
 out/ggx.qt and out/captures.qt), each lookup of the README's first table (the two tables at their
@@ -183,7 +183,7 @@ def main():
     parser.add_argument("--rounds", type=int, metavar="N",
                         help="time the lookups in N rounds, each over every scene (odd; default 1)")
     parser.add_argument("--no-bound", action="store_true",
-                        help="time the full descents without their bound (qtconvolve "
+                        help="time the full descents with their bound and without it (qtconvolve "
                              "--no-bound) in place of the full and targeted ones")
     parser.add_argument("--main-job", type=int, metavar="ROUNDS",
                         help="time the main job's own lookups in ROUNDS rounds instead")
@@ -203,7 +203,7 @@ def main():
     if args.rounds < 1 or args.rounds % 2 == 0:
         parser.error("--rounds needs an odd number (1, 3, 5, ...)")
     quick, reference, out = args.quick, args.reference, args.out
-    accuracies = [ALONE] if args.no_bound else ACCURACIES
+    accuracies = [0, ALONE] if args.no_bound else ACCURACIES
     os.makedirs(out, exist_ok=True)
     points = "200" if quick else "1000"
     tables = {}
