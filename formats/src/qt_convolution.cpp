@@ -121,7 +121,7 @@ Convolution FileConvolution::operator()(std::size_t k) const {
     return reflect(table_->brdf_table(), shaded_captures().trees.tree(k), shading_.wo,
                    {shading_.convolution, shading_.interpolation});
   }
-  return capture_product(view_a_, view_b_, k);
+  return capture_product(view_a_, view_b_, k, shading_.convolution);
 }
 
 int FileConvolution::convolutions_per_result() const {

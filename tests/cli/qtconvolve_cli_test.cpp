@@ -3,6 +3,7 @@
 // references; tilted normals against the exactly rotated integral; mismatched inputs.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -323,6 +324,25 @@ TEST(QtconvolveCli, MismatchedInputsAreClearErrors) {
   EXPECT_NEAR(ok["results"][0]["value"][0].get<double>(), 0.5, 0.5 * 0x1p-11);
   const auto twice = convolve_json(dir, {"one.qt", "one.qt"});
   EXPECT_NEAR(twice["results"][0]["value"][0].get<double>(), std::numbers::pi, 1e-5);
+  // Without the bound: the same values, no bound in any output form.
+  const auto twice_alone = convolve_json(dir, {"one.qt", "one.qt", "--no-bound"});
+  EXPECT_EQ(twice_alone["results"][0]["value"], twice["results"][0]["value"]);
+  EXPECT_FALSE(twice_alone["results"][0].contains("bound"));
+  for (const bool alone : {false, true}) {
+    std::vector<std::string> csv_args = {"l.qt", "one.qt", "--csv"},
+                             text_args = {"one.qt", "one.qt"};
+    if (alone) {
+      csv_args.push_back("--no-bound");
+      text_args.push_back("--no-bound");
+    }
+    const std::string csv = run_tool("qtconvolve", csv_args, dir.path()).out;
+    const std::string header = csv.substr(0, csv.find('\n'));
+    const std::string row = csv.substr(header.size() + 1);
+    EXPECT_EQ(header, alone ? "index,r,g,b" : "index,r,g,b,bound_r,bound_g,bound_b");
+    EXPECT_EQ(std::count(row.begin(), row.end(), ','), alone ? 3 : 6) << row;
+    const std::string text = run_tool("qtconvolve", text_args, dir.path()).out;
+    EXPECT_EQ(text.find("+-") == std::string::npos, alone) << text;
+  }
   struct Case {
     std::vector<std::string> args;
     int status;

@@ -1015,6 +1015,7 @@ GroupConvolution dispatch(const PackedTreeView& a, const PackedTreeView& b, int 
       return dispatch_simd<3, 1>(a, b, accuracy, {});
   }
 #else
+  (void)bound;  // the scalar descent computes the bound; result_of drops it
   return scalar(a, b, groups, accuracy);
 #endif
 }

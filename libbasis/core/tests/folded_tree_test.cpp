@@ -241,6 +241,8 @@ TEST(FoldedTree, RefusesWhatCannotFold) {
   const PackedTree capture = pack(project(test_functions(16, 1, 58)[1].grid, {}));
   EXPECT_THROW(convolve(folded, capture.view(), {.accuracy = 0.1, .bound = false}),
                std::invalid_argument);
+  EXPECT_NO_THROW(convolve(folded, capture.view(), {.accuracy = 0.1}));
+  EXPECT_NO_THROW(convolve(folded, capture.view(), {.bound = false}));
 }
 
 }  // namespace

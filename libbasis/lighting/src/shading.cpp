@@ -158,11 +158,12 @@ Convolution shade_dense(const DenseLookup& table, const Grid& radiance,
   return result;
 }
 
-Convolution capture_product(const CaptureSetView& a, const CaptureSetView& b, std::size_t k) {
+Convolution capture_product(const CaptureSetView& a, const CaptureSetView& b, std::size_t k,
+                            const ConvolutionOptions& options) {
   // A set of one capture stands for every point.
   const std::size_t ka = a.trees.size() == 1 ? 0 : k, kb = b.trees.size() == 1 ? 0 : k;
   const PackedTreeView ta = a.trees.tree(ka), tb = b.trees.tree(kb);
-  Convolution result = convolve(ta, tb);
+  Convolution result = convolve(ta, tb, options);
   for (int c = 0; c < 3; ++c) {
     result.value[c] *= float(std::numbers::pi);
     result.bound[c] *= float(std::numbers::pi);

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "basis/brdf/table_lookup.h"
@@ -400,7 +401,8 @@ TEST(Capture, LightsKeptApartCarryWhatTheTexelsWouldHold) {
 }
 
 // Products of captures whose lights are kept apart against the product of their full texel
-// grids with the lights splatted in (both captured here), within the certified bound.
+// grids with the lights splatted in (both captured here), within the certified bound, in full
+// and with an accuracy target; without the bound, the full descent's values.
 TEST(Capture, ProductsWithLightsStayWithinTheirBoundOfTheTexels) {
   const Environment env(two_suns_and_a_patch());
   const std::vector<SurfacePoint> points = {{Vec3::Zero(), Vec3(0.2, 0.1, 1).normalized()},
@@ -442,6 +444,18 @@ TEST(Capture, ProductsWithLightsStayWithinTheirBoundOfTheTexels) {
                 mixed.bound[c] * 1.0001 + 1e-6 * exact_mixed)
           << k << " " << c;
       EXPECT_LT(self.bound[c], 0.5 * exact_self) << "a bound too loose to mean anything";
+    }
+    // The descent takes its options: an accuracy target keeps the bound; without the bound the
+    // values are the full descent's.
+    const Convolution targeted = capture_product(apart.view(), apart.view(), k, {.accuracy = 0.2});
+    const Convolution alone = capture_product(apart.view(), splat.view(), k, {.bound = false});
+    EXPECT_EQ(alone.value, mixed.value) << k;
+    for (int c = 0; c < 3; ++c) {
+      const double exact_self = dense(apart_grids[k], apart_grids[k], c);
+      EXPECT_LE(std::abs(targeted.value[c] - exact_self),
+                targeted.bound[c] * 1.0001 + 1e-6 * exact_self)
+          << k << " " << c;
+      EXPECT_EQ(alone.bound[c], std::numeric_limits<float>::infinity()) << k << " " << c;
     }
   }
 }

@@ -15,7 +15,7 @@
 namespace basis {
 
 struct LookupOptions {
-  // Options of every convolution (an accuracy target).
+  // Options of every convolution (an accuracy target, or the values alone).
   ConvolutionOptions convolution;
   // Between entries: Hermite when the table holds derivatives over wo (bilinear otherwise), or
   // bilinear whatever the table holds.

@@ -15,7 +15,7 @@ namespace basis {
 // three lanes. convolve() returns the integral over [0,1]^2 of a(u,v) b(u,v) du dv (group 0 of
 // both trees); lookups built on it (reflect, shade, capture_product) return hemisphere
 // integrals, pi times that. The bound is on |value - the same integral of the trees'
-// full-resolution grids|.
+// full-resolution grids|; +infinity when the values alone were asked for (ConvolutionOptions).
 struct Convolution {
   Rgb value{};
   Rgb bound{};

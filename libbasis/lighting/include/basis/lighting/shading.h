@@ -25,7 +25,8 @@ struct ShadingOptions {
   // f for the captures' directional lights: this BRDF (the one the table tabulates) at the
   // light's exact direction when given, else the table's entries at the texel it falls in.
   const Brdf* light_brdf = nullptr;
-  // Options of every convolution (an accuracy target).
+  // Options of every convolution (an accuracy target, or the values alone: the bound is then
+  // +infinity).
   ConvolutionOptions convolution;
   // How lookups between table entries interpolate (table_lookup.h).
   WoInterpolation interpolation = WoInterpolation::hermite;
@@ -74,8 +75,10 @@ Convolution shade_dense(const DenseLookup& table, const Grid& radiance,
 // cosine-weighted map) at capture k of two sets of one resolution, each capture's directional
 // lights standing in the texel they fall in (as splat_lights would put them); the bound adds,
 // for each light, its weight times the other tree's leaf's largest-deviation bound there. A set of
-// one capture stands for every point. Throws std::invalid_argument when sets with lights differ in
-// resolution.
-Convolution capture_product(const CaptureSetView& a, const CaptureSetView& b, std::size_t k);
+// one capture stands for every point. The trees' descent takes `options` (an accuracy target, or
+// the values alone with a bound of +infinity). Throws std::invalid_argument when sets with lights
+// differ in resolution.
+Convolution capture_product(const CaptureSetView& a, const CaptureSetView& b, std::size_t k,
+                            const ConvolutionOptions& options = {});
 
 }  // namespace basis
