@@ -989,6 +989,15 @@ GroupConvolution dispatch_simd(const PackedTreeView& a, const PackedTreeView& b,
   return by_kinds.template operator()<3, 3>();
 }
 
+// dispatch_simd with the bound, or without it (the values alone) when `bound` is false.
+template <int GA, int GW, bool kFolded = false>
+GroupConvolution dispatch_simd_bound_if(bool bound, const PackedTreeView& a,
+                                        const PackedTreeView& b, double accuracy,
+                                        std::span<const float> weights, float floor_weight = 0) {
+  if (bound) return dispatch_simd<GA, GW, kFolded>(a, b, accuracy, weights, floor_weight);
+  return dispatch_simd<GA, GW, kFolded, false>(a, b, accuracy, weights, floor_weight);
+}
+
 #endif  // SSE4.1 and F16C
 
 // One group weighted by w: the value times w, the bound times |w|.
@@ -1005,10 +1014,9 @@ GroupConvolution dispatch(const PackedTreeView& a, const PackedTreeView& b, int 
                           double accuracy, bool bound = true) {
 #if defined(__SSE4_1__) && defined(__F16C__)
   check_compatible(a.shape(), b.shape());
-  if (!bound && groups == 1) return dispatch_simd<1, 1, false, false>(a, b, accuracy, {});
   switch (groups) {
     case 1:
-      return dispatch_simd<1, 1>(a, b, accuracy, {});
+      return dispatch_simd_bound_if<1, 1>(bound, a, b, accuracy, {});
     case 2:
       return dispatch_simd<2, 1>(a, b, accuracy, {});
     default:
@@ -1055,12 +1063,9 @@ Convolution convolve(const FoldedTree& a, const PackedTreeView& b,
   check_compatible(a.tree.shape, b.shape());
   check_options(options);
 #if defined(__SSE4_1__) && defined(__F16C__)
-  if (!options.bound)
-    return result_of(
-        dispatch_simd<1, 1, true, false>(a.tree.view(), b, options.accuracy, {}, a.floor_weight),
-        options);
-  return result_of(
-      dispatch_simd<1, 1, true>(a.tree.view(), b, options.accuracy, {}, a.floor_weight), options);
+  return result_of(dispatch_simd_bound_if<1, 1, true>(options.bound, a.tree.view(), b,
+                                                      options.accuracy, {}, a.floor_weight),
+                   options);
 #else
   (void)options;
   throw std::logic_error("convolving a folded tree needs SSE4.1 and F16C (folding_available())");
@@ -1083,17 +1088,14 @@ Convolution convolve_weighted(const PackedTreeView& a, std::span<const float> we
   GroupConvolution g;
   switch (weights.size()) {
     case 1:
-      g = scalar_weight_of(options.bound ? dispatch_simd<1, 1>(a, b, accuracy, {})
-                                         : dispatch_simd<1, 1, false, false>(a, b, accuracy, {}),
+      g = scalar_weight_of(dispatch_simd_bound_if<1, 1>(options.bound, a, b, accuracy, {}),
                            weights[0]);
       break;
     case 2:
-      g = options.bound ? dispatch_simd<1, 2>(a, b, accuracy, weights)
-                        : dispatch_simd<1, 2, false, false>(a, b, accuracy, weights);
+      g = dispatch_simd_bound_if<1, 2>(options.bound, a, b, accuracy, weights);
       break;
     default:
-      g = options.bound ? dispatch_simd<1, 3>(a, b, accuracy, weights)
-                        : dispatch_simd<1, 3, false, false>(a, b, accuracy, weights);
+      g = dispatch_simd_bound_if<1, 3>(options.bound, a, b, accuracy, weights);
   }
 #else
   const GroupConvolution g = scalar(a, b, 1, options.accuracy, weights);
