@@ -3,10 +3,16 @@
 // targets) and by vectorised dense products of the trees' reconstructions, side by side. Also
 // one capture repeated (hot), to tell the cost of the descent from the cost of reaching memory;
 // and lookups between entries, Hermite against bilinear in the same tables and against the
-// first version's tables.
+// first version's tables. And the study of first-order trees (first_order_tree.h): planes
+// against means in one unpacked layout, their pairs, errors and times.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
+#include <cmath>
+
+#include "basis/core/dense.h"
 #include "basis/lighting/shading.h"
+#include "basis/study/first_order_tree.h"
 #include "main_job_data.h"
 
 namespace basis::bench {
@@ -78,6 +84,72 @@ BENCHMARK(BM_DenseLookups)
     ->Name("lookup/dense")
     ->ArgNames({"ggx", "hot"})
     ->ArgsProduct({{0, 1}, {0, 1}})
+    ->Unit(benchmark::kMillisecond);
+
+// First-order trees of the table's grid at wo and of every capture's grid, built once before
+// timing as the dense grids are: arguments table (0 Phong, 1 GGX), accuracy in thousandths,
+// planes (0: the slopes dropped, means alone; 1: planes) and hot (1: capture 0 repeated). The
+// lookups leave out the captures' sun (one BRDF evaluation each, which the rows above include).
+// Counters, computed once beside the timing: pairs of blocks per lookup, and over every capture
+// and channel whose value exceeds 1e-3 of the largest, the error against the grids' product
+// (dense_convolve_naive) and the certified bound, median and p99, in % of the value.
+void BM_FirstOrderLookups(benchmark::State& state) {
+  const Lookup lookup = main_job_lookup(int(state.range(0)));
+  const double accuracy = double(state.range(1)) / 1000;
+  const bool planes = state.range(2) != 0, hot = state.range(3) != 0;
+  const DenseLookup table = dense_lookup(main_job_file(lookup.table).brdf_table(), lookup.wo);
+  const CaptureSetView captures = main_job_file("captures").captures();
+  static std::vector<Grid> grids;
+  static std::vector<FirstOrderTree> trees, flat_trees;
+  if (trees.empty())
+    for (std::size_t k = 0; k < captures.size(); ++k) {
+      grids.push_back(reconstruct(captures.trees.tree(k)));
+      trees.push_back(first_order_tree(grids.back()));
+      flat_trees.push_back(without_slopes(trees.back()));
+    }
+  const FirstOrderTree table_tree =
+      planes ? first_order_tree(table.grid) : without_slopes(first_order_tree(table.grid));
+  const std::vector<FirstOrderTree>& capture_trees = planes ? trees : flat_trees;
+  {
+    std::vector<double> errors, bounds;
+    std::vector<Rgb> exact;
+    double largest = 0, pairs = 0;
+    for (const Grid& grid : grids) {
+      exact.push_back(dense_convolve_naive(table.grid, grid));
+      for (const float e : exact.back())
+        largest = std::max(largest, double(e));
+    }
+    for (std::size_t k = 0; k < capture_trees.size(); ++k) {
+      const FirstOrderConvolution r = convolve_first_order(table_tree, capture_trees[k], accuracy);
+      pairs += double(r.pairs);
+      for (int c = 0; c < 3; ++c)
+        if (exact[k][c] > 1e-3 * largest) {
+          errors.push_back(std::abs(double(r.convolution.value[c]) - exact[k][c]) / exact[k][c]);
+          bounds.push_back(double(r.convolution.bound[c]) / exact[k][c]);
+        }
+    }
+    std::sort(errors.begin(), errors.end());
+    std::sort(bounds.begin(), bounds.end());
+    const auto percentile = [](const std::vector<double>& v, double p) {
+      return 100 * v[std::min(v.size() - 1, std::size_t(p * double(v.size())))];
+    };
+    state.counters["pairs"] = pairs / double(capture_trees.size());
+    state.counters["error_median_pct"] = percentile(errors, 0.5);
+    state.counters["error_p99_pct"] = percentile(errors, 0.99);
+    state.counters["bound_median_pct"] = percentile(bounds, 0.5);
+    state.counters["bound_p99_pct"] = percentile(bounds, 0.99);
+  }
+  for (auto _ : state)
+    for (std::size_t k = 0; k < capture_trees.size(); ++k)
+      benchmark::DoNotOptimize(
+          convolve_first_order(table_tree, capture_trees[hot ? 0 : k], accuracy));
+  state.SetItemsProcessed(std::int64_t(state.iterations() * capture_trees.size()));
+}
+BENCHMARK(BM_FirstOrderLookups)
+    ->Name("lookup/first_order")
+    ->ArgNames({"ggx", "accuracy_permille", "planes", "hot"})
+    ->ArgsProduct({{0, 1}, {0, 5, 10, 20}, {0, 1}, {0}})
+    ->ArgsProduct({{0, 1}, {10}, {1}, {1}})
     ->Unit(benchmark::kMillisecond);
 
 // Finding and folding the entries around one wo, what a batch of lookups at that wo pays once:

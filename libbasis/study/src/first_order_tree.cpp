@@ -1,0 +1,327 @@
+#include "basis/study/first_order_tree.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace basis {
+
+namespace {
+
+// A node's sums over its texels, in texel units about the node's centre: the function, its
+// first moments in u and v, and its square.
+struct Moments {
+  double sum = 0, sum_u = 0, sum_v = 0, sum_squares = 0;
+};
+
+// One level of the grid's pyramid: per node and channel its moments, and whether the function
+// is constant on it (with that constant).
+struct Level {
+  int side = 0;  // nodes per row
+  std::vector<std::array<Moments, 3>> moments;
+  std::vector<std::array<float, 3>> constant_value;
+  std::vector<char> constant;
+};
+
+// Sixteen float lanes and eight double lanes, one vector each where the machine has them.
+using Lanes = float __attribute__((vector_size(64)));
+using Wide = double __attribute__((vector_size(64)));
+
+using Ints = std::int32_t __attribute__((vector_size(64)));
+
+// Bit i in lane i, for the twelve lanes in use.
+constexpr Ints kLaneBits = {1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024, 2048, 0, 0, 0, 0};
+
+// For each set of quadrants (bit q for quadrant q), 1 in their lanes and 0 elsewhere.
+constexpr std::array<std::array<float, 16>, 16> quadrant_lanes() {
+  std::array<std::array<float, 16>, 16> lanes{};
+  for (unsigned set = 0; set < 16; ++set)
+    for (int i = 0; i < 12; ++i)
+      lanes[set][std::size_t(i)] = (set >> (i / 3)) & 1 ? 1.0f : 0.0f;
+  return lanes;
+}
+constexpr std::array<std::array<float, 16>, 16> kQuadrantLanes = quadrant_lanes();
+
+// Vectors pass by reference: where the machine lacks 64-byte registers, passing them by value
+// would take an ABI that differs from one build to another.
+unsigned horizontal_or(const Ints& lanes) {
+  Ints x = lanes;
+  x |= __builtin_shufflevector(x, x, 8, 9, 10, 11, 12, 13, 14, 15, 0, 1, 2, 3, 4, 5, 6, 7);
+  x |= __builtin_shufflevector(x, x, 4, 5, 6, 7, 0, 1, 2, 3, 4, 5, 6, 7, 0, 1, 2, 3);
+  x |= __builtin_shufflevector(x, x, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3, 0, 1);
+  x |= __builtin_shufflevector(x, x, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0);
+  return unsigned(x[0]);
+}
+
+void load(const std::array<float, 16>& values, Lanes& lanes) {
+  std::memcpy(&lanes, values.data(), sizeof lanes);
+}
+
+// |x| lane by lane, into `magnitude`.
+void absolute(const Lanes& x, Lanes& magnitude) {
+  using Bits = std::uint32_t __attribute__((vector_size(64)));
+  magnitude = Lanes(Bits(x) & 0x7fffffffu);
+}
+
+// Adds the sixteen lanes of x to two vectors of eight doubles.
+void add_widened(const Lanes& x, Wide& low, Wide& high) {
+  low += __builtin_convertvector(__builtin_shufflevector(x, x, 0, 1, 2, 3, 4, 5, 6, 7), Wide);
+  high +=
+      __builtin_convertvector(__builtin_shufflevector(x, x, 8, 9, 10, 11, 12, 13, 14, 15), Wide);
+}
+
+// |a| + |b| + |c| lane by lane.
+void absolute_sum(const Lanes& a, const Lanes& b, const Lanes& c, Lanes& sum) {
+  Lanes magnitude;
+  absolute(a, sum);
+  absolute(b, magnitude);
+  sum += magnitude;
+  absolute(c, magnitude);
+  sum += magnitude;
+}
+
+// A double rounded up to a float.
+float round_up(double x) {
+  float f = float(x);
+  if (double(f) < x) f = std::nextafter(f, std::numeric_limits<float>::infinity());
+  return f;
+}
+
+// The pyramid of a grid's group 0, texels first.
+std::vector<Level> pyramid(const Grid& grid) {
+  const int n = grid.resolution;
+  std::vector<Level> levels(1);
+  Level& texels = levels[0];
+  texels.side = n;
+  texels.moments.resize(std::size_t(n) * n);
+  texels.constant_value.resize(texels.moments.size());
+  texels.constant.assign(texels.moments.size(), 1);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x)
+      for (int c = 0; c < 3; ++c) {
+        const float f = grid.at(0, std::min(c, grid.channels - 1), x, y);
+        if (!std::isfinite(f))
+          throw std::invalid_argument("first-order tree of a non-finite value");
+        const std::size_t i = std::size_t(y) * n + x;
+        texels.moments[i][c] = {f, 0, 0, double(f) * f};
+        texels.constant_value[i][c] = f;
+      }
+  for (int side = n / 2, child_side = 1; side >= 1; side /= 2, child_side *= 2) {
+    const Level& below = levels.back();
+    Level level;
+    level.side = side;
+    level.moments.resize(std::size_t(side) * side);
+    level.constant_value.resize(level.moments.size());
+    level.constant.assign(level.moments.size(), 1);
+    const double offset = child_side / 2.0;  // a child's centre from its parent's, in texels
+    for (int y = 0; y < side; ++y)
+      for (int x = 0; x < side; ++x) {
+        const std::size_t i = std::size_t(y) * side + x;
+        for (int q = 0; q < 4; ++q) {
+          const std::size_t j = std::size_t(2 * y + (q >> 1)) * below.side + 2 * x + (q & 1);
+          const double du = (q & 1) ? offset : -offset, dv = (q >> 1) ? offset : -offset;
+          for (int c = 0; c < 3; ++c) {
+            const Moments& m = below.moments[j][c];
+            Moments& sum = level.moments[i][c];
+            sum.sum += m.sum;
+            sum.sum_u += m.sum_u + du * m.sum;
+            sum.sum_v += m.sum_v + dv * m.sum;
+            sum.sum_squares += m.sum_squares;
+          }
+          if (!below.constant[j] ||
+              below.constant_value[j] != below.constant_value[2 * y * below.side + 2 * x])
+            level.constant[i] = 0;
+        }
+        level.constant_value[i] = below.constant_value[2 * y * below.side + 2 * x];
+      }
+    levels.push_back(std::move(level));
+  }
+  return levels;
+}
+
+// Quadrant q of a block from node i of a level whose nodes are `texels` texels wide.
+void set_quadrant(FirstOrderBlock& block, int q, const Level& level, std::size_t i, int texels) {
+  const double count = double(texels) * texels;
+  const double slope_scale = std::sqrt(12.0) / (texels * count);
+  for (int c = 0; c < 3; ++c) {
+    const int lane = 3 * q + c;
+    if (level.constant[i]) {
+      block.mean[lane] = level.constant_value[i][c];
+      continue;  // exact: slopes and residual 0
+    }
+    const Moments& m = level.moments[i][c];
+    const double mean = m.sum / count, slope_u = m.sum_u * slope_scale,
+                 slope_v = m.sum_v * slope_scale, mean_square = m.sum_squares / count;
+    // The sums' rounding moves the difference by a few 2^-40 of the mean square at most.
+    const double residual_square =
+        std::max(0.0, mean_square - mean * mean - slope_u * slope_u - slope_v * slope_v) +
+        0x1p-34 * mean_square;
+    block.mean[lane] = float(mean);
+    block.slope_u[lane] = float(slope_u);
+    block.slope_v[lane] = float(slope_v);
+    block.residual[lane] = round_up(std::sqrt(residual_square) * (1 + 0x1p-50));
+  }
+}
+
+// Appends the block of node (x, y) of levels[level]'s quadrants, then theirs; returns its index.
+std::int32_t append_block(const std::vector<Level>& levels, int level, int x, int y,
+                          std::vector<FirstOrderBlock>& blocks) {
+  const std::int32_t index = std::int32_t(blocks.size());
+  blocks.emplace_back();
+  const Level& below = levels[level - 1];
+  const int texels = 1 << (level - 1);
+  for (int q = 0; q < 4; ++q) {
+    const int cx = 2 * x + (q & 1), cy = 2 * y + (q >> 1);
+    const std::size_t j = std::size_t(cy) * below.side + cx;
+    set_quadrant(blocks[index], q, below, j, texels);
+  }
+  for (int q = 0; q < 4; ++q) {
+    const int cx = 2 * x + (q & 1), cy = 2 * y + (q >> 1);
+    const std::size_t j = std::size_t(cy) * below.side + cx;
+    if (level - 1 > 0 && !below.constant[j]) {
+      const std::int32_t child = append_block(levels, level - 1, cx, cy, blocks);
+      blocks[index].child[q] = child;
+    }
+  }
+  return index;
+}
+
+}  // namespace
+
+FirstOrderTree first_order_tree(const Grid& grid) {
+  const int n = grid.resolution;
+  if (n < 2 || (n & (n - 1)) != 0)
+    throw std::invalid_argument("first-order tree of a grid of resolution " + std::to_string(n) +
+                                " (a power of two from 2)");
+  if (grid.channels != 1 && grid.channels != 3)
+    throw std::invalid_argument("first-order tree of a grid of " + std::to_string(grid.channels) +
+                                " channels (1 or 3)");
+  const std::vector<Level> levels = pyramid(grid);
+  FirstOrderTree tree;
+  tree.resolution = n;
+  append_block(levels, int(levels.size()) - 1, 0, 0, tree.blocks);
+  return tree;
+}
+
+FirstOrderTree without_slopes(const FirstOrderTree& tree) {
+  FirstOrderTree flat = tree;
+  for (FirstOrderBlock& block : flat.blocks)
+    for (std::size_t i = 0; i < 12; ++i) {
+      const double residual = block.residual[i], u = block.slope_u[i], v = block.slope_v[i];
+      block.residual[i] = round_up(std::sqrt(residual * residual + u * u + v * v) * (1 + 0x1p-50));
+      block.slope_u[i] = block.slope_v[i] = 0;
+    }
+  return flat;
+}
+
+FirstOrderConvolution convolve_first_order(const FirstOrderTree& a, const FirstOrderTree& b,
+                                           double accuracy) {
+  if (a.resolution != b.resolution || a.blocks.empty() || b.blocks.empty())
+    throw std::invalid_argument("first-order trees of resolutions " + std::to_string(a.resolution) +
+                                " and " + std::to_string(b.resolution) + " do not convolve");
+  if (!(accuracy >= 0) || !std::isfinite(accuracy))
+    throw std::invalid_argument("first-order convolution to an accuracy of " +
+                                std::to_string(accuracy));
+  // Per pair of quadrants, what the coefficients' rounding to floats (at most 2^-24 of each) and
+  // the float arithmetic of the planes' product (a few 2^-24 more) may move it: within 2^-20 of
+  // the product of their absolute sums. The pairs' bounds, computed in floats, are scaled up by
+  // 2^-20 for their own rounding at the end.
+  constexpr float kRounding = 0x1p-20f;
+  Wide value_low{}, value_high{}, bound_low{}, bound_high{};
+  std::array<double, 3> estimate{};
+  {
+    const FirstOrderBlock &ra = a.blocks[0], &rb = b.blocks[0];
+    for (int i = 0; i < 12; ++i)
+      estimate[i % 3] +=
+          0.25 * (double(ra.mean[i]) * rb.mean[i] + double(ra.slope_u[i]) * rb.slope_u[i] +
+                  double(ra.slope_v[i]) * rb.slope_v[i]);
+    for (double& e : estimate)
+      e = std::abs(e);
+  }
+  std::size_t pairs = 0;
+  const float half_accuracy = float(accuracy / 2);
+  Lanes budget{};  // accuracy / 2 x E, lane by lane
+  for (int i = 0; i < 12; ++i)
+    budget[i] = half_accuracy * float(estimate[i % 3]);
+  struct Pair {
+    std::int32_t a, b;
+  };
+  // Level by level: each level's pairs are queued, and their blocks fetched, while the level
+  // above is still being worked through, so that memory latency overlaps the arithmetic.
+  std::vector<Pair> level{{0, 0}}, next;
+  level.reserve(64);
+  next.reserve(64);
+  const auto prefetch = [](const FirstOrderBlock& block) {
+    const char* bytes = reinterpret_cast<const char*>(&block);
+    for (std::size_t offset = 0; offset < sizeof(FirstOrderBlock); offset += 64)
+      __builtin_prefetch(bytes + offset);
+  };
+  for (int depth = 1; !level.empty(); ++depth) {
+    const float area = std::ldexp(1.0f, -2 * depth);  // of the level's quadrants
+    next.resize(4 * level.size());
+    std::size_t count = 0;
+    pairs += level.size();
+    for (const Pair& pair : level) {
+      const FirstOrderBlock& ba = a.blocks[std::size_t(pair.a)];
+      const FirstOrderBlock& bb = b.blocks[std::size_t(pair.b)];
+      // In floats, twelve lanes at once: the rounding term covers the arithmetic's rounding.
+      Lanes ma, ua, va, ra, mb, ub, vb, rb;
+      load(ba.mean, ma);
+      load(ba.slope_u, ua);
+      load(ba.slope_v, va);
+      load(ba.residual, ra);
+      load(bb.mean, mb);
+      load(bb.slope_u, ub);
+      load(bb.slope_v, vb);
+      load(bb.residual, rb);
+      const Lanes product = ma * mb + ua * ub + va * vb;
+      Lanes sum_a, sum_b, magnitude;
+      absolute_sum(ma, ua, va, sum_a);
+      absolute_sum(mb, ub, vb, sum_b);
+      absolute(product, magnitude);
+      const Lanes pair_bound = ra * rb + kRounding * sum_a * sum_b;
+      const Ints within_lanes = pair_bound <= half_accuracy * magnitude + budget;
+      const unsigned within = horizontal_or(within_lanes & kLaneBits);
+      unsigned stops = 0;  // bit q: quadrant q stops
+      for (int q = 0; q < 4; ++q) {
+        const bool go_on = ba.child[q] >= 0 && bb.child[q] >= 0;
+        if (go_on && (accuracy == 0 || ((within >> (3 * q)) & 7) != 7)) {
+          next[count++] = {ba.child[q], bb.child[q]};
+          prefetch(a.blocks[std::size_t(ba.child[q])]);
+          prefetch(b.blocks[std::size_t(bb.child[q])]);
+        } else {
+          stops |= 1u << q;
+        }
+      }
+      Lanes stop;
+      load(kQuadrantLanes[stops], stop);
+      stop *= area;
+      add_widened(stop * product, value_low, value_high);
+      add_widened(stop * pair_bound, bound_low, bound_high);
+    }
+    next.resize(count);
+    level.swap(next);
+  }
+  std::array<double, 16> value, bound;
+  for (int i = 0; i < 8; ++i) {
+    value[i] = value_low[i];
+    value[8 + i] = value_high[i];
+    bound[i] = bound_low[i];
+    bound[8 + i] = bound_high[i];
+  }
+  Convolution result;
+  for (int c = 0; c < 3; ++c) {
+    const double v = value[c] + value[3 + c] + value[6 + c] + value[9 + c];
+    const double e = bound[c] + bound[3 + c] + bound[6 + c] + bound[9 + c];
+    result.value[c] = float(v);
+    // The pairs' bounds' rounding in floats, the sums' (far below the pairs' rounding terms) and
+    // the value's to float.
+    result.bound[c] = round_up(e * (1 + 0x1p-20) + 0x1p-24 * std::abs(v));
+  }
+  return {result, pairs};
+}
+
+}  // namespace basis
