@@ -88,39 +88,58 @@ BENCHMARK(BM_DenseLookups)
 
 // First-order trees of the table's grid at wo and of every capture's grid, built once before
 // timing as the dense grids are: arguments table (0 Phong, 1 GGX), accuracy in thousandths,
-// planes (0: the slopes dropped, means alone; 1: planes) and hot (1: capture 0 repeated). The
-// lookups leave out the captures' sun (one BRDF evaluation each, which the rows above include).
-// Counters, computed once beside the timing: pairs of blocks per lookup, and over every capture
-// and channel whose value exceeds 1e-3 of the largest, the error against the grids' product
-// (dense_convolve_naive) and the certified bound, median and p99, in % of the value.
+// form (0: the slopes dropped, means alone; 1: planes; 2: planes, the captures' trees compact)
+// and hot (1: capture 0 repeated). The lookups leave out the captures' sun (one BRDF evaluation
+// each, which the rows above include). Counters, computed once beside the timing: pairs of
+// blocks per lookup, and over every capture and channel whose value exceeds 1e-3 of the
+// largest, the error against the grids' product (dense_convolve_naive) and the certified bound,
+// median and p99, in % of the value.
+struct FirstOrderCaptures {
+  std::vector<Grid> grids;
+  std::vector<FirstOrderTree> planes, means;
+  std::vector<CompactFirstOrderTree> compact_planes;
+};
+
+const FirstOrderCaptures& first_order_captures() {
+  static FirstOrderCaptures captures;
+  if (captures.grids.empty()) {
+    const CaptureSetView set = main_job_file("captures").captures();
+    for (std::size_t k = 0; k < set.size(); ++k) {
+      captures.grids.push_back(reconstruct(set.trees.tree(k)));
+      captures.planes.push_back(first_order_tree(captures.grids.back()));
+      captures.means.push_back(without_slopes(captures.planes.back()));
+      captures.compact_planes.push_back(compact(captures.planes.back()));
+    }
+  }
+  return captures;
+}
+
 void BM_FirstOrderLookups(benchmark::State& state) {
   const Lookup lookup = main_job_lookup(int(state.range(0)));
   const double accuracy = double(state.range(1)) / 1000;
-  const bool planes = state.range(2) != 0, hot = state.range(3) != 0;
+  const int form = int(state.range(2));
+  const bool hot = state.range(3) != 0;
   const DenseLookup table = dense_lookup(main_job_file(lookup.table).brdf_table(), lookup.wo);
-  const CaptureSetView captures = main_job_file("captures").captures();
-  static std::vector<Grid> grids;
-  static std::vector<FirstOrderTree> trees, flat_trees;
-  if (trees.empty())
-    for (std::size_t k = 0; k < captures.size(); ++k) {
-      grids.push_back(reconstruct(captures.trees.tree(k)));
-      trees.push_back(first_order_tree(grids.back()));
-      flat_trees.push_back(without_slopes(trees.back()));
-    }
+  const FirstOrderCaptures& captures = first_order_captures();
   const FirstOrderTree table_tree =
-      planes ? first_order_tree(table.grid) : without_slopes(first_order_tree(table.grid));
-  const std::vector<FirstOrderTree>& capture_trees = planes ? trees : flat_trees;
+      form == 0 ? without_slopes(first_order_tree(table.grid)) : first_order_tree(table.grid);
+  const std::size_t count = captures.grids.size();
+  const auto lookup_at = [&](std::size_t k) {
+    return form == 0   ? convolve_first_order(table_tree, captures.means[k], accuracy)
+           : form == 1 ? convolve_first_order(table_tree, captures.planes[k], accuracy)
+                       : convolve_first_order(table_tree, captures.compact_planes[k], accuracy);
+  };
   {
     std::vector<double> errors, bounds;
     std::vector<Rgb> exact;
     double largest = 0, pairs = 0;
-    for (const Grid& grid : grids) {
+    for (const Grid& grid : captures.grids) {
       exact.push_back(dense_convolve_naive(table.grid, grid));
       for (const float e : exact.back())
         largest = std::max(largest, double(e));
     }
-    for (std::size_t k = 0; k < capture_trees.size(); ++k) {
-      const FirstOrderConvolution r = convolve_first_order(table_tree, capture_trees[k], accuracy);
+    for (std::size_t k = 0; k < count; ++k) {
+      const FirstOrderConvolution r = lookup_at(k);
       pairs += double(r.pairs);
       for (int c = 0; c < 3; ++c)
         if (exact[k][c] > 1e-3 * largest) {
@@ -133,23 +152,22 @@ void BM_FirstOrderLookups(benchmark::State& state) {
     const auto percentile = [](const std::vector<double>& v, double p) {
       return 100 * v[std::min(v.size() - 1, std::size_t(p * double(v.size())))];
     };
-    state.counters["pairs"] = pairs / double(capture_trees.size());
+    state.counters["pairs"] = pairs / double(count);
     state.counters["error_median_pct"] = percentile(errors, 0.5);
     state.counters["error_p99_pct"] = percentile(errors, 0.99);
     state.counters["bound_median_pct"] = percentile(bounds, 0.5);
     state.counters["bound_p99_pct"] = percentile(bounds, 0.99);
   }
   for (auto _ : state)
-    for (std::size_t k = 0; k < capture_trees.size(); ++k)
-      benchmark::DoNotOptimize(
-          convolve_first_order(table_tree, capture_trees[hot ? 0 : k], accuracy));
-  state.SetItemsProcessed(std::int64_t(state.iterations() * capture_trees.size()));
+    for (std::size_t k = 0; k < count; ++k)
+      benchmark::DoNotOptimize(lookup_at(hot ? 0 : k));
+  state.SetItemsProcessed(std::int64_t(state.iterations() * count));
 }
 BENCHMARK(BM_FirstOrderLookups)
     ->Name("lookup/first_order")
-    ->ArgNames({"ggx", "accuracy_permille", "planes", "hot"})
-    ->ArgsProduct({{0, 1}, {0, 5, 10, 20}, {0, 1}, {0}})
-    ->ArgsProduct({{0, 1}, {10}, {1}, {1}})
+    ->ArgNames({"ggx", "accuracy_permille", "form", "hot"})
+    ->ArgsProduct({{0, 1}, {0, 5, 10, 20}, {0, 1, 2}, {0}})
+    ->ArgsProduct({{0, 1}, {10}, {1, 2}, {1}})
     ->Unit(benchmark::kMillisecond);
 
 // Finding and folding the entries around one wo, what a batch of lookups at that wo pays once:

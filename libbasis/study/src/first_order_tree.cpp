@@ -2,10 +2,17 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
+
+#if defined(__AVX512F__)
+#include <immintrin.h>
+#endif
+
+#include "basis/core/half.h"
 
 namespace basis {
 
@@ -200,9 +207,26 @@ FirstOrderTree first_order_tree(const Grid& grid) {
     throw std::invalid_argument("first-order tree of a grid of " + std::to_string(grid.channels) +
                                 " channels (1 or 3)");
   const std::vector<Level> levels = pyramid(grid);
+  std::vector<FirstOrderBlock> depth_first;
+  append_block(levels, int(levels.size()) - 1, 0, 0, depth_first);
+  // Breadth first, as packed trees lie: a level's blocks next to each other, the top levels in
+  // the first few lines.
+  std::vector<std::int32_t> order{0}, renumbered(depth_first.size(), -1);
+  renumbered[0] = 0;
+  for (std::size_t i = 0; i < order.size(); ++i)
+    for (const std::int32_t child : depth_first[std::size_t(order[i])].child)
+      if (child >= 0) {
+        renumbered[std::size_t(child)] = std::int32_t(order.size());
+        order.push_back(child);
+      }
   FirstOrderTree tree;
   tree.resolution = n;
-  append_block(levels, int(levels.size()) - 1, 0, 0, tree.blocks);
+  tree.blocks.reserve(depth_first.size());
+  for (const std::int32_t k : order) {
+    tree.blocks.push_back(depth_first[std::size_t(k)]);
+    for (std::int32_t& child : tree.blocks.back().child)
+      if (child >= 0) child = renumbered[std::size_t(child)];
+  }
   return tree;
 }
 
@@ -217,81 +241,122 @@ FirstOrderTree without_slopes(const FirstOrderTree& tree) {
   return flat;
 }
 
-FirstOrderConvolution convolve_first_order(const FirstOrderTree& a, const FirstOrderTree& b,
-                                           double accuracy) {
-  if (a.resolution != b.resolution || a.blocks.empty() || b.blocks.empty())
-    throw std::invalid_argument("first-order trees of resolutions " + std::to_string(a.resolution) +
-                                " and " + std::to_string(b.resolution) + " do not convolve");
-  if (!(accuracy >= 0) || !std::isfinite(accuracy))
-    throw std::invalid_argument("first-order convolution to an accuracy of " +
-                                std::to_string(accuracy));
-  // Per pair of quadrants, what the coefficients' rounding to floats (at most 2^-24 of each) and
-  // the float arithmetic of the planes' product (a few 2^-24 more) may move it: within 2^-20 of
-  // the product of their absolute sums. The pairs' bounds, computed in floats, are scaled up by
-  // 2^-20 for their own rounding at the end.
-  constexpr float kRounding = 0x1p-20f;
-  Wide value_low{}, value_high{}, bound_low{}, bound_high{};
-  std::array<double, 3> estimate{};
-  {
-    const FirstOrderBlock &ra = a.blocks[0], &rb = b.blocks[0];
+namespace {
+
+// The four groups of a block as sixteen lanes each, and per lane the most by which the block's
+// coefficients may differ from the exact planes' beyond float rounding (0 for float blocks).
+void load_block(const FirstOrderBlock& block, float, Lanes& mean, Lanes& slope_u, Lanes& slope_v,
+                Lanes& residual, Lanes& rounding) {
+  load(block.mean, mean);
+  load(block.slope_u, slope_u);
+  load(block.slope_v, slope_v);
+  load(block.residual, residual);
+  rounding = Lanes{};
+}
+
+// Sixteen halves from `halves` on, times scale.
+void load_halves(const std::uint16_t* halves, float scale, Lanes& lanes) {
+#if defined(__AVX512F__)
+  __m256i bits;
+  std::memcpy(&bits, halves, sizeof bits);
+  const __m512 values = _mm512_maskz_cvtph_ps(0xffff, bits);
+  std::memcpy(&lanes, &values, sizeof lanes);
+#else
+  for (int i = 0; i < 16; ++i)
+    lanes[i] = half_to_float(halves[i]);
+#endif
+  lanes *= scale;
+}
+
+void load_block(const CompactFirstOrderBlock& block, float scale, Lanes& mean, Lanes& slope_u,
+                Lanes& slope_v, Lanes& residual, Lanes& rounding) {
+  load_halves(&block.halves[0], scale, mean);
+  load_halves(&block.halves[12], scale, slope_u);
+  load_halves(&block.halves[24], scale, slope_v);
+  load_halves(&block.halves[36], scale, residual);
+  // Rounded to nearest halves from floats: within 2^-11 of the largest (and a float's 2^-24
+  // before it), or half a subnormal step of scale.
+  Lanes m, u, v;
+  absolute(mean, m);
+  absolute(slope_u, u);
+  absolute(slope_v, v);
+  const Lanes largest = m > u ? (m > v ? m : v) : (u > v ? u : v);
+  rounding = 0x1.02p-11f * largest + 0x1p-24f * scale;
+}
+
+float scale_of(const FirstOrderTree&) {
+  return 1;
+}
+float scale_of(const CompactFirstOrderTree& tree) {
+  return tree.scale;
+}
+
+// Per pair of quadrants, what the coefficients' rounding to floats (at most 2^-24 of each) and
+// the float arithmetic of the planes' product (a few 2^-24 more) may move it: within 2^-20 of the
+// product of their absolute sums. The pairs' bounds, computed in floats, are scaled up by 2^-20
+// for their own rounding at the end.
+constexpr float kRounding = 0x1p-20f;
+
+// One descent of a against b, a level at a time: each level's pairs are queued, and their blocks
+// fetched, while the level above is worked through, so that memory latency overlaps the
+// arithmetic.
+template <typename Tree>
+class Descent {
+ public:
+  Descent(const FirstOrderTree& a, const Tree& b, double accuracy)
+      : a_(&a), b_(&b), scale_(scale_of(b)), accuracy_(accuracy) {
+    if (a.resolution != b.resolution || a.blocks.empty() || b.blocks.empty())
+      throw std::invalid_argument("first-order trees of resolutions " +
+                                  std::to_string(a.resolution) + " and " +
+                                  std::to_string(b.resolution) + " do not convolve");
+    if (!(accuracy >= 0) || !std::isfinite(accuracy))
+      throw std::invalid_argument("first-order convolution to an accuracy of " +
+                                  std::to_string(accuracy));
+    std::array<double, 3> estimate{};
+    Lanes ma, ua, va, ra, mb, ub, vb, rb, rounding;
+    load_block(a.blocks[0], 1, ma, ua, va, ra, rounding);
+    load_block(b.blocks[0], scale_, mb, ub, vb, rb, rounding);
+    const Lanes product = ma * mb + ua * ub + va * vb;
     for (int i = 0; i < 12; ++i)
-      estimate[i % 3] +=
-          0.25 * (double(ra.mean[i]) * rb.mean[i] + double(ra.slope_u[i]) * rb.slope_u[i] +
-                  double(ra.slope_v[i]) * rb.slope_v[i]);
-    for (double& e : estimate)
-      e = std::abs(e);
+      estimate[std::size_t(i % 3)] += 0.25 * double(product[i]);
+    half_accuracy_ = float(accuracy / 2);
+    for (int i = 0; i < 12; ++i)
+      budget_[i] = half_accuracy_ * float(std::abs(estimate[std::size_t(i % 3)]));
+    level_.reserve(64);
+    next_.reserve(64);
+    level_.push_back({0, 0});
   }
-  std::size_t pairs = 0;
-  const float half_accuracy = float(accuracy / 2);
-  Lanes budget{};  // accuracy / 2 x E, lane by lane
-  for (int i = 0; i < 12; ++i)
-    budget[i] = half_accuracy * float(estimate[i % 3]);
-  struct Pair {
-    std::int32_t a, b;
-  };
-  // Level by level: each level's pairs are queued, and their blocks fetched, while the level
-  // above is still being worked through, so that memory latency overlaps the arithmetic.
-  std::vector<Pair> level{{0, 0}}, next;
-  level.reserve(64);
-  next.reserve(64);
-  const auto prefetch = [](const FirstOrderBlock& block) {
-    const char* bytes = reinterpret_cast<const char*>(&block);
-    for (std::size_t offset = 0; offset < sizeof(FirstOrderBlock); offset += 64)
-      __builtin_prefetch(bytes + offset);
-  };
-  for (int depth = 1; !level.empty(); ++depth) {
-    const float area = std::ldexp(1.0f, -2 * depth);  // of the level's quadrants
-    next.resize(4 * level.size());
+
+  bool done() const { return level_.empty(); }
+
+  // Descends one level.
+  void step() {
+    const float area = std::ldexp(1.0f, -2 * depth_);  // of the level's quadrants
+    next_.resize(4 * level_.size());
     std::size_t count = 0;
-    pairs += level.size();
-    for (const Pair& pair : level) {
-      const FirstOrderBlock& ba = a.blocks[std::size_t(pair.a)];
-      const FirstOrderBlock& bb = b.blocks[std::size_t(pair.b)];
+    pairs_ += level_.size();
+    for (const Pair& pair : level_) {
+      const FirstOrderBlock& ba = a_->blocks[std::size_t(pair.a)];
+      const auto& bb = b_->blocks[std::size_t(pair.b)];
       // In floats, twelve lanes at once: the rounding term covers the arithmetic's rounding.
-      Lanes ma, ua, va, ra, mb, ub, vb, rb;
-      load(ba.mean, ma);
-      load(ba.slope_u, ua);
-      load(ba.slope_v, va);
-      load(ba.residual, ra);
-      load(bb.mean, mb);
-      load(bb.slope_u, ub);
-      load(bb.slope_v, vb);
-      load(bb.residual, rb);
+      Lanes ma, ua, va, ra, mb, ub, vb, rb, rounding_a, rounding_b;
+      load_block(ba, 1, ma, ua, va, ra, rounding_a);
+      load_block(bb, scale_, mb, ub, vb, rb, rounding_b);
       const Lanes product = ma * mb + ua * ub + va * vb;
       Lanes sum_a, sum_b, magnitude;
       absolute_sum(ma, ua, va, sum_a);
       absolute_sum(mb, ub, vb, sum_b);
       absolute(product, magnitude);
-      const Lanes pair_bound = ra * rb + kRounding * sum_a * sum_b;
-      const Ints within_lanes = pair_bound <= half_accuracy * magnitude + budget;
+      const Lanes pair_bound = ra * rb + sum_a * rounding_b + kRounding * sum_a * sum_b;
+      const Ints within_lanes = pair_bound <= half_accuracy_ * magnitude + budget_;
       const unsigned within = horizontal_or(within_lanes & kLaneBits);
       unsigned stops = 0;  // bit q: quadrant q stops
       for (int q = 0; q < 4; ++q) {
         const bool go_on = ba.child[q] >= 0 && bb.child[q] >= 0;
-        if (go_on && (accuracy == 0 || ((within >> (3 * q)) & 7) != 7)) {
-          next[count++] = {ba.child[q], bb.child[q]};
-          prefetch(a.blocks[std::size_t(ba.child[q])]);
-          prefetch(b.blocks[std::size_t(bb.child[q])]);
+        if (go_on && (accuracy_ == 0 || ((within >> (3 * q)) & 7) != 7)) {
+          next_[count++] = {ba.child[q], bb.child[q]};
+          prefetch(a_->blocks[std::size_t(ba.child[q])]);
+          prefetch(b_->blocks[std::size_t(bb.child[q])]);
         } else {
           stops |= 1u << q;
         }
@@ -299,29 +364,103 @@ FirstOrderConvolution convolve_first_order(const FirstOrderTree& a, const FirstO
       Lanes stop;
       load(kQuadrantLanes[stops], stop);
       stop *= area;
-      add_widened(stop * product, value_low, value_high);
-      add_widened(stop * pair_bound, bound_low, bound_high);
+      add_widened(stop * product, value_low_, value_high_);
+      add_widened(stop * pair_bound, bound_low_, bound_high_);
     }
-    next.resize(count);
-    level.swap(next);
+    next_.resize(count);
+    level_.swap(next_);
+    ++depth_;
   }
-  std::array<double, 16> value, bound;
-  for (int i = 0; i < 8; ++i) {
-    value[i] = value_low[i];
-    value[8 + i] = value_high[i];
-    bound[i] = bound_low[i];
-    bound[8 + i] = bound_high[i];
+
+  FirstOrderConvolution result() const {
+    std::array<double, 16> value, bound;
+    for (int i = 0; i < 8; ++i) {
+      value[std::size_t(i)] = value_low_[i];
+      value[std::size_t(8 + i)] = value_high_[i];
+      bound[std::size_t(i)] = bound_low_[i];
+      bound[std::size_t(8 + i)] = bound_high_[i];
+    }
+    Convolution out;
+    for (std::size_t c = 0; c < 3; ++c) {
+      const double v = value[c] + value[3 + c] + value[6 + c] + value[9 + c];
+      const double e = bound[c] + bound[3 + c] + bound[6 + c] + bound[9 + c];
+      out.value[c] = float(v);
+      // The pairs' bounds' rounding in floats, the sums' (far below the pairs' rounding terms)
+      // and the value's to float.
+      out.bound[c] = round_up(e * (1 + 0x1p-20) + 0x1p-24 * std::abs(v));
+    }
+    return {out, pairs_};
   }
-  Convolution result;
-  for (int c = 0; c < 3; ++c) {
-    const double v = value[c] + value[3 + c] + value[6 + c] + value[9 + c];
-    const double e = bound[c] + bound[3 + c] + bound[6 + c] + bound[9 + c];
-    result.value[c] = float(v);
-    // The pairs' bounds' rounding in floats, the sums' (far below the pairs' rounding terms) and
-    // the value's to float.
-    result.bound[c] = round_up(e * (1 + 0x1p-20) + 0x1p-24 * std::abs(v));
+
+ private:
+  struct Pair {
+    std::int32_t a, b;
+  };
+  template <typename Block>
+  static void prefetch(const Block& block) {
+    const char* bytes = reinterpret_cast<const char*>(&block);
+    for (std::size_t offset = 0; offset < sizeof block; offset += 64)
+      __builtin_prefetch(bytes + offset);
   }
-  return {result, pairs};
+
+  const FirstOrderTree* a_;
+  const Tree* b_;
+  float scale_;
+  double accuracy_;
+  float half_accuracy_ = 0;
+  Lanes budget_{};  // accuracy / 2 x E, lane by lane, E the roots' planes' estimate
+  Wide value_low_{}, value_high_{}, bound_low_{}, bound_high_{};
+  std::vector<Pair> level_, next_;
+  int depth_ = 1;
+  std::size_t pairs_ = 0;
+};
+
+template <typename Tree>
+FirstOrderConvolution descend(const FirstOrderTree& a, const Tree& b, double accuracy) {
+  Descent<Tree> descent(a, b, accuracy);
+  while (!descent.done())
+    descent.step();
+  return descent.result();
+}
+
+}  // namespace
+
+FirstOrderConvolution convolve_first_order(const FirstOrderTree& a, const FirstOrderTree& b,
+                                           double accuracy) {
+  return descend(a, b, accuracy);
+}
+
+FirstOrderConvolution convolve_first_order(const FirstOrderTree& a, const CompactFirstOrderTree& b,
+                                           double accuracy) {
+  return descend(a, b, accuracy);
+}
+
+CompactFirstOrderTree compact(const FirstOrderTree& tree) {
+  float largest = 0;
+  for (const FirstOrderBlock& block : tree.blocks)
+    for (std::size_t i = 0; i < 12; ++i)
+      largest = std::max({largest, std::abs(block.mean[i]), std::abs(block.slope_u[i]),
+                          std::abs(block.slope_v[i]), block.residual[i]});
+  CompactFirstOrderTree out;
+  out.resolution = tree.resolution;
+  // The largest coefficient below 2^15 in units of the scale, and so below the largest half
+  // (65504) after rounding up.
+  out.scale = largest > 0 ? std::ldexp(1.0f, std::ilogb(largest) - 14) : 1;
+  out.blocks.resize(tree.blocks.size());
+  for (std::size_t k = 0; k < tree.blocks.size(); ++k) {
+    const FirstOrderBlock& from = tree.blocks[k];
+    CompactFirstOrderBlock& to = out.blocks[k];
+    to.child = from.child;
+    for (std::size_t i = 0; i < 12; ++i) {
+      to.halves[i] = float_to_half(from.mean[i] / out.scale);
+      to.halves[12 + i] = float_to_half(from.slope_u[i] / out.scale);
+      to.halves[24 + i] = float_to_half(from.slope_v[i] / out.scale);
+      std::uint16_t residual = float_to_half(from.residual[i] / out.scale);
+      if (half_to_float(residual) < from.residual[i] / out.scale) ++residual;  // round up
+      to.halves[36 + i] = residual;
+    }
+  }
+  return out;
 }
 
 }  // namespace basis

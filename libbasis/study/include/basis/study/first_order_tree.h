@@ -5,8 +5,9 @@
 // residuals are orthogonal to both planes, so the pair's error is at most area x residual_a x
 // residual_b (Cauchy-Schwarz), and where the functions are smooth the residuals shrink with the
 // square of the quadrant's side instead of with its side, as the deviations from the mean do.
-// Unpacked (floats, 320 bytes a block), built from full-resolution grids: it measures how many
-// pairs planes save against means in one layout, not what a packed form would cost.
+// Built from full-resolution grids, in floats (320 bytes a block of four quadrants) or, for the
+// side read from memory, in halves (128 bytes): it measures how many pairs planes save against
+// means in one layout, not what a packed form in files would cost.
 #pragma once
 
 #include <array>
@@ -32,8 +33,8 @@ struct alignas(64) FirstOrderBlock {
   std::array<std::int32_t, 4> child{-1, -1, -1, -1};
 };
 
-// A grid's first-order tree; block 0 holds the root's quadrants, each block's descendants follow
-// it (depth first).
+// A grid's first-order tree; block 0 holds the root's quadrants, the rest follow breadth first
+// (a level's blocks next to each other, as in packed trees).
 struct FirstOrderTree {
   int resolution = 0;
   std::vector<FirstOrderBlock> blocks;
@@ -59,6 +60,27 @@ struct FirstOrderConvolution {
   std::size_t pairs = 0;  // pairs of blocks descended (each four pairs of quadrants)
 };
 FirstOrderConvolution convolve_first_order(const FirstOrderTree& a, const FirstOrderTree& b,
+                                           double accuracy);
+
+// The same planes in half the memory, for the side read from memory at every lookup (a
+// capture): four quadrants' coefficients as halves of coefficient / scale (rounded to nearest)
+// and their residuals as halves rounded up, 128 bytes a block (two cache lines) against 320.
+// Group g (mean, slope_u, slope_v, residual) holds lanes 0..11 at halves[12 g]; four zero halves
+// close the block so that a block's groups load as sixteen lanes.
+struct alignas(64) CompactFirstOrderBlock {
+  std::array<std::uint16_t, 52> halves{};
+  std::array<std::int32_t, 4> child{-1, -1, -1, -1};
+};
+struct CompactFirstOrderTree {
+  int resolution = 0;
+  float scale = 1;  // a power of two: every coefficient / scale is within the half range
+  std::vector<CompactFirstOrderBlock> blocks;
+};
+CompactFirstOrderTree compact(const FirstOrderTree& tree);
+
+// convolve_first_order with b compact: the bound adds, per pair, the planes' product's change
+// from b's rounding to halves (|a's coefficients| summed times b's largest rounding).
+FirstOrderConvolution convolve_first_order(const FirstOrderTree& a, const CompactFirstOrderTree& b,
                                            double accuracy);
 
 // The tree with the slopes dropped: each quadrant its mean alone and, as residual, its RMS
