@@ -150,7 +150,7 @@ void BM_FirstOrderLookups(benchmark::State& state) {
     std::sort(errors.begin(), errors.end());
     std::sort(bounds.begin(), bounds.end());
     const auto percentile = [](const std::vector<double>& v, double p) {
-      return 100 * v[std::min(v.size() - 1, std::size_t(p * double(v.size())))];
+      return v.empty() ? 0.0 : 100 * v[std::min(v.size() - 1, std::size_t(p * double(v.size())))];
     };
     state.counters["pairs"] = pairs / double(count);
     state.counters["error_median_pct"] = percentile(errors, 0.5);

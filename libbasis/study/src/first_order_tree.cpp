@@ -90,6 +90,10 @@ void absolute_sum(const Lanes& a, const Lanes& b, const Lanes& c, Lanes& sum) {
   sum += magnitude;
 }
 
+// The largest texel a tree takes: products of coefficients stay far from float overflow, and
+// what float underflow loses stays within kUnderflow (below).
+constexpr float kLargestValue = 0x1p60f;
+
 // A double rounded up to a float.
 float round_up(double x) {
   float f = float(x);
@@ -110,8 +114,11 @@ std::vector<Level> pyramid(const Grid& grid) {
     for (int x = 0; x < n; ++x)
       for (int c = 0; c < 3; ++c) {
         const float f = grid.at(0, std::min(c, grid.channels - 1), x, y);
-        if (!std::isfinite(f))
-          throw std::invalid_argument("first-order tree of a non-finite value");
+        if (!std::isfinite(f) || std::abs(f) > kLargestValue)
+          throw std::invalid_argument(
+              "first-order tree of a value that is not finite or beyond "
+              "2^60: " +
+              std::to_string(f));
         const std::size_t i = std::size_t(y) * n + x;
         texels.moments[i][c] = {f, 0, 0, double(f) * f};
         texels.constant_value[i][c] = f;
@@ -235,7 +242,8 @@ FirstOrderTree without_slopes(const FirstOrderTree& tree) {
   for (FirstOrderBlock& block : flat.blocks)
     for (std::size_t i = 0; i < 12; ++i) {
       const double residual = block.residual[i], u = block.slope_u[i], v = block.slope_v[i];
-      block.residual[i] = round_up(std::sqrt(residual * residual + u * u + v * v) * (1 + 0x1p-50));
+      // The slopes were rounded to nearest floats: up by 2^-22 for that.
+      block.residual[i] = round_up(std::sqrt(residual * residual + u * u + v * v) * (1 + 0x1p-22));
       block.slope_u[i] = block.slope_v[i] = 0;
     }
   return flat;
@@ -254,15 +262,16 @@ void load_block(const FirstOrderBlock& block, float, Lanes& mean, Lanes& slope_u
   rounding = Lanes{};
 }
 
-// Sixteen halves from `halves` on, times scale.
+// Twelve halves from `halves` on, times scale, in lanes 0..11; lanes 12..15 zero.
 void load_halves(const std::uint16_t* halves, float scale, Lanes& lanes) {
 #if defined(__AVX512F__)
   __m256i bits;
-  std::memcpy(&bits, halves, sizeof bits);
-  const __m512 values = _mm512_maskz_cvtph_ps(0xffff, bits);
+  std::memcpy(&bits, halves, sizeof bits);  // sixteen halves, the last four masked off
+  const __m512 values = _mm512_maskz_cvtph_ps(0x0fff, bits);
   std::memcpy(&lanes, &values, sizeof lanes);
 #else
-  for (int i = 0; i < 16; ++i)
+  lanes = Lanes{};
+  for (int i = 0; i < 12; ++i)
     lanes[i] = half_to_float(halves[i]);
 #endif
   lanes *= scale;
@@ -296,6 +305,9 @@ float scale_of(const CompactFirstOrderTree& tree) {
 // product of their absolute sums. The pairs' bounds, computed in floats, are scaled up by 2^-20
 // for their own rounding at the end.
 constexpr float kRounding = 0x1p-20f;
+// What float underflow may lose per pair of quadrants, beyond that: subnormal coefficients and
+// products lose at most a few 2^-149 each, times coefficients of at most 2^60 (kLargestValue).
+constexpr float kUnderflow = 0x1p-80f;
 
 // One descent of a against b, a level at a time: each level's pairs are queued, and their blocks
 // fetched, while the level above is worked through, so that memory latency overlaps the
@@ -305,7 +317,9 @@ class Descent {
  public:
   Descent(const FirstOrderTree& a, const Tree& b, double accuracy)
       : a_(&a), b_(&b), scale_(scale_of(b)), accuracy_(accuracy) {
-    if (a.resolution != b.resolution || a.blocks.empty() || b.blocks.empty())
+    if (a.blocks.empty() || b.blocks.empty())
+      throw std::invalid_argument("first-order convolution of an empty tree");
+    if (a.resolution != b.resolution)
       throw std::invalid_argument("first-order trees of resolutions " +
                                   std::to_string(a.resolution) + " and " +
                                   std::to_string(b.resolution) + " do not convolve");
@@ -331,7 +345,8 @@ class Descent {
 
   // Descends one level.
   void step() {
-    const float area = std::ldexp(1.0f, -2 * depth_);  // of the level's quadrants
+    // The level's sums, scaled by its quadrants' area in doubles (no underflow) at its end.
+    Wide value_low{}, value_high{}, bound_low{}, bound_high{};
     next_.resize(4 * level_.size());
     std::size_t count = 0;
     pairs_ += level_.size();
@@ -347,7 +362,8 @@ class Descent {
       absolute_sum(ma, ua, va, sum_a);
       absolute_sum(mb, ub, vb, sum_b);
       absolute(product, magnitude);
-      const Lanes pair_bound = ra * rb + sum_a * rounding_b + kRounding * sum_a * sum_b;
+      const Lanes pair_bound =
+          ra * rb + sum_a * rounding_b + kRounding * sum_a * sum_b + kUnderflow;
       const Ints within_lanes = pair_bound <= half_accuracy_ * magnitude + budget_;
       const unsigned within = horizontal_or(within_lanes & kLaneBits);
       unsigned stops = 0;  // bit q: quadrant q stops
@@ -363,10 +379,14 @@ class Descent {
       }
       Lanes stop;
       load(kQuadrantLanes[stops], stop);
-      stop *= area;
-      add_widened(stop * product, value_low_, value_high_);
-      add_widened(stop * pair_bound, bound_low_, bound_high_);
+      add_widened(stop * product, value_low, value_high);
+      add_widened(stop * pair_bound, bound_low, bound_high);
     }
+    const double area = std::ldexp(1.0, -2 * depth_);  // of the level's quadrants
+    value_low_ += area * value_low;
+    value_high_ += area * value_high;
+    bound_low_ += area * bound_low;
+    bound_high_ += area * bound_high;
     next_.resize(count);
     level_.swap(next_);
     ++depth_;
@@ -444,8 +464,8 @@ CompactFirstOrderTree compact(const FirstOrderTree& tree) {
   CompactFirstOrderTree out;
   out.resolution = tree.resolution;
   // The largest coefficient below 2^15 in units of the scale, and so below the largest half
-  // (65504) after rounding up.
-  out.scale = largest > 0 ? std::ldexp(1.0f, std::ilogb(largest) - 14) : 1;
+  // (65504) after rounding up; the scale a normal float, so that halves times it are exact.
+  out.scale = largest > 0 ? std::ldexp(1.0f, std::max(std::ilogb(largest) - 14, -126)) : 1;
   out.blocks.resize(tree.blocks.size());
   for (std::size_t k = 0; k < tree.blocks.size(); ++k) {
     const FirstOrderBlock& from = tree.blocks[k];

@@ -6,9 +6,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <initializer_list>
 #include <limits>
-#include <numbers>
 #include <string>
+#include <tuple>
+#include <vector>
 
 #include "basis/core/dense.h"
 #include "basis/study/first_order_tree.h"
@@ -18,6 +20,51 @@ namespace basis {
 namespace {
 
 using testing::test_functions;
+using testing::three_groups;
+
+// The integral over [0,1]^2 of a * b per channel, by a plain loop in doubles (group 0; a grey
+// grid counts for all three channels).
+std::array<double, 3> exact_product(const Grid& a, const Grid& b) {
+  std::array<double, 3> sum{};
+  const int n = a.resolution;
+  for (int c = 0; c < 3; ++c)
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x)
+        sum[std::size_t(c)] += double(a.at(0, std::min(c, a.channels - 1), x, y)) *
+                               double(b.at(0, std::min(c, b.channels - 1), x, y));
+  for (double& s : sum)
+    s /= double(n) * n;
+  return sum;
+}
+
+// Checks the three forms (planes, means, b compact) against the double loop at `accuracies`.
+void expect_within_bounds(const Grid& grid_a, const Grid& grid_b,
+                          std::initializer_list<double> accuracies, const std::string& what) {
+  const FirstOrderTree a = first_order_tree(grid_a), b = first_order_tree(grid_b);
+  const FirstOrderTree flat_a = without_slopes(a), flat_b = without_slopes(b);
+  const CompactFirstOrderTree compact_b = compact(b);
+  const std::array<double, 3> exact = exact_product(grid_a, grid_b);
+  for (const double accuracy : accuracies)
+    for (const std::string form : {"planes", "means", "compact"}) {
+      const Convolution r = form == "planes" ? convolve_first_order(a, b, accuracy).convolution
+                            : form == "means"
+                                ? convolve_first_order(flat_a, flat_b, accuracy).convolution
+                                : convolve_first_order(a, compact_b, accuracy).convolution;
+      for (std::size_t c = 0; c < 3; ++c) {
+        SCOPED_TRACE(what + ", accuracy " + std::to_string(accuracy) + ", " + form + ", channel " +
+                     std::to_string(c));
+        EXPECT_TRUE(std::isfinite(r.value[c]));
+        EXPECT_LE(std::abs(double(r.value[c]) - exact[c]), double(r.bound[c]));
+      }
+    }
+}
+
+// The grid with every texel's absolute value.
+Grid absolute(Grid grid) {
+  for (float& t : grid.texels)
+    t = std::abs(t);
+  return grid;
+}
 
 // A smooth lobe (a Gaussian of width `width` about (cu, cv)) on a floor, texel centres sampled.
 Grid lobe(int n, double cu, double cv, double width, double floor) {
@@ -57,7 +104,8 @@ TEST(FirstOrderTree, ProductsHoldWithinTheirBoundAtEveryAccuracy) {
                             (form == "compact" ? 3e-3 : 1e-5) * std::abs(exact[c]) + 1e-30);
                 }
                 // The test functions are non-negative: the stops' bounds add up to at most the
-                // accuracy times the value (and the estimate's share of it).
+                // accuracy times the value and the root's estimate; the 1.5 allows for that
+                // estimate exceeding the value on these functions (it is not a guarantee).
                 if (exact[c] > 0) {
                   EXPECT_LE(r.bound[c], 1.5 * accuracy * exact[c] +
                                             (form == "compact" ? 3e-3 : 1e-5) * exact[c]);
@@ -65,6 +113,59 @@ TEST(FirstOrderTree, ProductsHoldWithinTheirBoundAtEveryAccuracy) {
               }
             }
         }
+}
+
+TEST(FirstOrderTree, SignedFunctionsHoldWithinTheirBound) {
+  // Signed functions cancel: the bound must hold where the value is far below the sum of the
+  // terms' magnitudes. A smooth wave and random noise of two amplitudes (as table entries'
+  // derivatives hold them), against each other and against non-negative functions.
+  for (const int n : {16, 64}) {
+    const Grid base = testing::test_functions(n, 3, 74)[1].grid;
+    const Grid groups = three_groups(base, 75);
+    const std::vector<double> wave_only = {0, 1}, noise_only = {0, 0, 1}, mix = {0.3, -1, 0.5};
+    const Grid wave = combine_groups(groups, wave_only), noise = combine_groups(groups, noise_only),
+               mixed = combine_groups(groups, mix);
+    const Grid smooth = lobe(n, 0.3, 0.6, 0.2, 0);
+    for (const auto& [name, a, b] :
+         {std::tuple{"wave x noise", wave, noise}, std::tuple{"wave x lobe", wave, smooth},
+          std::tuple{"mixed x mixed", mixed, mixed}, std::tuple{"noise x lobe", noise, smooth}}) {
+      expect_within_bounds(a, b, {0.0, 0.01, 0.1}, std::string(name) + " at " + std::to_string(n));
+      // At accuracy 0 the bound is rounding: small against the magnitudes' integral.
+      const std::array<double, 3> magnitude = exact_product(absolute(a), absolute(b));
+      const Convolution full =
+          convolve_first_order(first_order_tree(a), first_order_tree(b), 0).convolution;
+      for (std::size_t c = 0; c < 3; ++c)
+        EXPECT_LE(full.bound[c], 1e-5 * magnitude[c]) << name;
+    }
+  }
+}
+
+TEST(FirstOrderTree, TinyHugeAndFarApartValuesHoldWithinTheirBound) {
+  const int n = 32;
+  // A bright spike on a dim floor: the floor's halves are subnormal in the compact tree.
+  Grid spike = lobe(n, 0.5, 0.5, 0.3, 1e-4);
+  spike.at(0, 0, 7, 9) = 1e5f;
+  spike.at(0, 2, 20, 3) = 3e4f;
+  // Values whose products underflow floats, and values near the largest a tree takes.
+  Grid tiny = lobe(n, 0.4, 0.4, 0.1, 0);
+  for (float& t : tiny.texels)
+    t *= 1e-30f;
+  Grid huge = lobe(n, 0.6, 0.3, 0.2, 0.1);
+  for (float& t : huge.texels)
+    t *= 0x1p59f;
+  const Grid smooth = lobe(n, 0.2, 0.7, 0.25, 0.05);
+  expect_within_bounds(smooth, spike, {0.0, 0.01, 0.1}, "lobe x spike");
+  expect_within_bounds(spike, spike, {0.0, 0.01, 0.1}, "spike x spike");
+  expect_within_bounds(tiny, smooth, {0.0, 0.01, 0.1}, "tiny x lobe");
+  expect_within_bounds(tiny, tiny, {0.0, 0.01}, "tiny x tiny");
+  expect_within_bounds(huge, smooth, {0.0, 0.01, 0.1}, "huge x lobe");
+  expect_within_bounds(huge, huge, {0.0, 0.01}, "huge x huge");
+  // Beyond 2^60 a tree is refused, with a control just inside.
+  Grid too_large = smooth;
+  too_large.at(0, 1, 5, 5) = 0x1p61f;
+  EXPECT_THROW(first_order_tree(too_large), std::invalid_argument);
+  too_large.at(0, 1, 5, 5) = 0x1p60f;
+  EXPECT_NO_THROW(first_order_tree(too_large));
 }
 
 TEST(FirstOrderTree, SmoothProductsStopEarlyAndStayAccurate) {
@@ -116,6 +217,33 @@ TEST(FirstOrderTree, PlanesStopOnTheRootsQuadrantsOnLinearFunctions) {
     EXPECT_LE(std::abs(double(r.value[c]) - exact[c]), double(r.bound[c]));
     EXPECT_LE(r.bound[c], 1e-3 * exact[c]);
   }
+}
+
+TEST(FirstOrderTree, BlocksLieBreadthFirstAndCompactKeepsTheirOrder) {
+  const FirstOrderTree tree = first_order_tree(lobe(64, 0.45, 0.55, 0.12, 0.0));
+  // Every block but the root's is the child of exactly one block before it, and the blocks'
+  // depths never decrease: each level lies next to itself.
+  std::vector<int> depth(tree.blocks.size(), -1), parents(tree.blocks.size(), 0);
+  depth[0] = 0;
+  for (std::size_t k = 0; k < tree.blocks.size(); ++k) {
+    ASSERT_GE(depth[k], 0) << "block " << k << " is reached before its parent";
+    if (k > 0) {
+      EXPECT_GE(depth[k], depth[k - 1]);
+    }
+    for (const std::int32_t child : tree.blocks[k].child)
+      if (child >= 0) {
+        ASSERT_GT(std::size_t(child), k);
+        ASSERT_LT(std::size_t(child), tree.blocks.size());
+        depth[std::size_t(child)] = depth[k] + 1;
+        ++parents[std::size_t(child)];
+      }
+  }
+  for (std::size_t k = 1; k < tree.blocks.size(); ++k)
+    EXPECT_EQ(parents[k], 1) << "block " << k;
+  const CompactFirstOrderTree small = compact(tree);
+  ASSERT_EQ(small.blocks.size(), tree.blocks.size());
+  for (std::size_t k = 0; k < tree.blocks.size(); ++k)
+    EXPECT_EQ(small.blocks[k].child, tree.blocks[k].child);
 }
 
 TEST(FirstOrderTree, RefusesWhatItCannotConvolve) {

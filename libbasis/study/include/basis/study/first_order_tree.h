@@ -42,8 +42,8 @@ struct FirstOrderTree {
 
 // Group 0 of the grid (1 or 3 channels; one channel is repeated in the three lanes) as a
 // first-order tree, refined down to its texels wherever it is not constant. Exact up to the
-// coefficients' rounding to floats. Resolution at least 2 (std::invalid_argument otherwise, or
-// for values that are not finite).
+// coefficients' rounding to floats. std::invalid_argument unless the resolution is a power of
+// two from 2, the channels 1 or 3, and every texel finite and within +-2^60.
 FirstOrderTree first_order_tree(const Grid& grid);
 
 // The integral over [0,1]^2 of a * b, per channel, by a simultaneous descent of two first-order
@@ -62,11 +62,11 @@ struct FirstOrderConvolution {
 FirstOrderConvolution convolve_first_order(const FirstOrderTree& a, const FirstOrderTree& b,
                                            double accuracy);
 
-// The same planes in half the memory, for the side read from memory at every lookup (a
+// The same planes in 40 % of the memory, for the side read from memory at every lookup (a
 // capture): four quadrants' coefficients as halves of coefficient / scale (rounded to nearest)
 // and their residuals as halves rounded up, 128 bytes a block (two cache lines) against 320.
 // Group g (mean, slope_u, slope_v, residual) holds lanes 0..11 at halves[12 g]; four zero halves
-// close the block so that a block's groups load as sixteen lanes.
+// close the block, so that each group loads as sixteen halves (the last four masked off).
 struct alignas(64) CompactFirstOrderBlock {
   std::array<std::uint16_t, 52> halves{};
   std::array<std::int32_t, 4> child{-1, -1, -1, -1};
@@ -76,6 +76,7 @@ struct CompactFirstOrderTree {
   float scale = 1;  // a power of two: every coefficient / scale is within the half range
   std::vector<CompactFirstOrderBlock> blocks;
 };
+// The tree's blocks in halves, in the same order, with one scale for the tree.
 CompactFirstOrderTree compact(const FirstOrderTree& tree);
 
 // convolve_first_order with b compact: the bound adds, per pair, the planes' product's change
