@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "basis/brdf/table_lookup.h"
 #include "basis/core/dense.h"
 #include "basis/lighting/shading.h"
 #include "basis/study/first_order_tree.h"
@@ -88,16 +89,19 @@ BENCHMARK(BM_DenseLookups)
 
 // First-order trees of the table's grid at wo and of every capture's grid, built once before
 // timing as the dense grids are: arguments table (0 Phong, 1 GGX), accuracy in thousandths,
-// form (0: the slopes dropped, means alone; 1: planes; 2: planes, the captures' trees compact)
-// and hot (1: capture 0 repeated). The lookups leave out the captures' sun (one BRDF evaluation
+// form (0: the slopes dropped, means alone; 1: planes; 2: planes, the captures' trees compact;
+// 3 and 4: as 0 and 2, built from the packed trees, the table's entries around wo weighted as a
+// lookup weights them, so that the bound covers the data the files were made from) and hot (1:
+// capture 0 repeated). The lookups leave out the captures' sun (one BRDF evaluation
 // each, which the rows above include). Counters, computed once beside the timing: pairs of
 // blocks per lookup, and over every capture and channel whose value exceeds 1e-3 of the
 // largest, the error against the grids' product (dense_convolve_naive) and the certified bound,
-// median and p99, in % of the value.
+// median and p99, in % of the value (forms 3 and 4: a bound that covers the data, and so more
+// than the grids need).
 struct FirstOrderCaptures {
   std::vector<Grid> grids;
-  std::vector<FirstOrderTree> planes, means;
-  std::vector<CompactFirstOrderTree> compact_planes;
+  std::vector<FirstOrderTree> planes, means, certified_means;
+  std::vector<CompactFirstOrderTree> compact_planes, certified_compact_planes;
 };
 
 const FirstOrderCaptures& first_order_captures() {
@@ -109,6 +113,9 @@ const FirstOrderCaptures& first_order_captures() {
       captures.planes.push_back(first_order_tree(captures.grids.back()));
       captures.means.push_back(without_slopes(captures.planes.back()));
       captures.compact_planes.push_back(compact(captures.planes.back()));
+      const FirstOrderTree certified = first_order_tree(set.trees.tree(k));
+      captures.certified_means.push_back(without_slopes(certified));
+      captures.certified_compact_planes.push_back(compact(certified));
     }
   }
   return captures;
@@ -121,13 +128,32 @@ void BM_FirstOrderLookups(benchmark::State& state) {
   const bool hot = state.range(3) != 0;
   const DenseLookup table = dense_lookup(main_job_file(lookup.table).brdf_table(), lookup.wo);
   const FirstOrderCaptures& captures = first_order_captures();
-  const FirstOrderTree table_tree =
-      form == 0 ? without_slopes(first_order_tree(table.grid)) : first_order_tree(table.grid);
+  // The entries around wo, weighted as a lookup weights them.
+  const BrdfTableView entries = main_job_file(lookup.table).brdf_table();
+  std::vector<WeightedTerm> terms;
+  for (const TableTap& tap : lookup_taps(entries, lookup.wo, WoInterpolation::hermite))
+    if (tap.reads_anything())
+      terms.push_back({entries.entry(tap.i, tap.j),
+                       {float(tap.weights[0]), float(tap.weights[1]), float(tap.weights[2])},
+                       tap.groups_read()});
+  const FirstOrderTree table_tree = form == 0   ? without_slopes(first_order_tree(table.grid))
+                                    : form < 3  ? first_order_tree(table.grid)
+                                    : form == 3 ? without_slopes(first_order_tree(terms))
+                                                : first_order_tree(terms);
   const std::size_t count = captures.grids.size();
   const auto lookup_at = [&](std::size_t k) {
-    return form == 0   ? convolve_first_order(table_tree, captures.means[k], accuracy)
-           : form == 1 ? convolve_first_order(table_tree, captures.planes[k], accuracy)
-                       : convolve_first_order(table_tree, captures.compact_planes[k], accuracy);
+    switch (form) {
+      case 0:
+        return convolve_first_order(table_tree, captures.means[k], accuracy);
+      case 1:
+        return convolve_first_order(table_tree, captures.planes[k], accuracy);
+      case 2:
+        return convolve_first_order(table_tree, captures.compact_planes[k], accuracy);
+      case 3:
+        return convolve_first_order(table_tree, captures.certified_means[k], accuracy);
+      default:
+        return convolve_first_order(table_tree, captures.certified_compact_planes[k], accuracy);
+    }
   };
   {
     std::vector<double> errors, bounds;
@@ -166,7 +192,7 @@ void BM_FirstOrderLookups(benchmark::State& state) {
 BENCHMARK(BM_FirstOrderLookups)
     ->Name("lookup/first_order")
     ->ArgNames({"ggx", "accuracy_permille", "form", "hot"})
-    ->ArgsProduct({{0, 1}, {0, 5, 10, 20}, {0, 1, 2}, {0}})
+    ->ArgsProduct({{0, 1}, {0, 5, 10, 20}, {0, 1, 2, 3, 4}, {0}})
     ->ArgsProduct({{0, 1}, {10}, {1, 2}, {1}})
     ->Unit(benchmark::kMillisecond);
 

@@ -24,14 +24,38 @@ struct Moments {
   double sum = 0, sum_u = 0, sum_v = 0, sum_squares = 0;
 };
 
-// One level of the grid's pyramid: per node and channel its moments, and whether the function
-// is constant on it (with that constant).
+// A function's texels row by row, three channels each (a grey function's one repeated).
+using Texels = std::vector<std::array<double, 3>>;
+
+// One level of the function's pyramid: per node and channel its moments, and whether the
+// function is constant on it (with that constant). For a tree built from packed trees, also per
+// node and channel what FirstOrderData is made of, each summed over the live terms: the RMS of
+// the data's difference D from them, the RMS of their leaves' rounding, the mean of their
+// leaves' bounds times the leaves' side over the node's, and the mean of their leaves' rounding;
+// and the bounds of the terms whose leaf the node is (charged only where the function goes on).
 struct Level {
   int side = 0;  // nodes per row
   std::vector<std::array<Moments, 3>> moments;
-  std::vector<std::array<float, 3>> constant_value;
+  std::vector<std::array<double, 3>> constant_value;
   std::vector<char> constant;
+  std::vector<std::array<double, 3>> data_rms, data_rounding_rms, data_moment, data_rounding,
+      leaf_bound;
+  int terms = 0;  // packed trees summed (0: built from a grid)
 };
+
+// RMS over a quadrant of f - p, f a function and p a plane over it, given the RMS r of the
+// function's own piecewise-constant part about the plane, the RMS e of D = f - that part, and
+// bounds on their cross term: with one packed tree, the part is constant on each of its leaves
+// L, so that the integral of (part - p) D over L is (value_L - p's mean over L) times the
+// integral of D (which the leaf's rounding bounds) plus the integral of (p's mean - p) D (which
+// the plane's variation across L bounds): in all, at most area x (r x rounding_rms + g x
+// moment), g the RMS of p's slopes. With several trees the part is not constant on one tree's
+// leaves: r + e.
+double residual_with_data(double r, double e, double rounding_rms, double g, double moment,
+                          int terms) {
+  if (terms != 1) return r + e;
+  return std::sqrt(r * r + e * e + 2 * (r * rounding_rms + g * moment));
+}
 
 // Sixteen float lanes and eight double lanes, one vector each where the machine has them.
 using Lanes = float __attribute__((vector_size(64)));
@@ -80,16 +104,6 @@ void add_widened(const Lanes& x, Wide& low, Wide& high) {
       __builtin_convertvector(__builtin_shufflevector(x, x, 8, 9, 10, 11, 12, 13, 14, 15), Wide);
 }
 
-// |a| + |b| + |c| lane by lane.
-void absolute_sum(const Lanes& a, const Lanes& b, const Lanes& c, Lanes& sum) {
-  Lanes magnitude;
-  absolute(a, sum);
-  absolute(b, magnitude);
-  sum += magnitude;
-  absolute(c, magnitude);
-  sum += magnitude;
-}
-
 // The largest texel a tree takes: products of coefficients stay far from float overflow, and
 // what float underflow loses stays within kUnderflow (below).
 constexpr float kLargestValue = 0x1p60f;
@@ -101,28 +115,31 @@ float round_up(double x) {
   return f;
 }
 
-// The pyramid of a grid's group 0, texels first.
-std::vector<Level> pyramid(const Grid& grid) {
-  const int n = grid.resolution;
+// Throws unless every texel is finite and within +-kLargestValue.
+void check_texels(const Texels& texels) {
+  for (const std::array<double, 3>& texel : texels)
+    for (const double f : texel)
+      if (!std::isfinite(f) || std::abs(f) > double(kLargestValue))
+        throw std::invalid_argument(
+            "first-order tree of a value that is not finite or beyond "
+            "2^60: " +
+            std::to_string(f));
+}
+
+// The pyramid of a function of n x n texels, texels first.
+std::vector<Level> pyramid(int n, const Texels& values) {
   std::vector<Level> levels(1);
   Level& texels = levels[0];
   texels.side = n;
   texels.moments.resize(std::size_t(n) * n);
   texels.constant_value.resize(texels.moments.size());
   texels.constant.assign(texels.moments.size(), 1);
-  for (int y = 0; y < n; ++y)
-    for (int x = 0; x < n; ++x)
-      for (int c = 0; c < 3; ++c) {
-        const float f = grid.at(0, std::min(c, grid.channels - 1), x, y);
-        if (!std::isfinite(f) || std::abs(f) > kLargestValue)
-          throw std::invalid_argument(
-              "first-order tree of a value that is not finite or beyond "
-              "2^60: " +
-              std::to_string(f));
-        const std::size_t i = std::size_t(y) * n + x;
-        texels.moments[i][c] = {f, 0, 0, double(f) * f};
-        texels.constant_value[i][c] = f;
-      }
+  for (std::size_t i = 0; i < values.size(); ++i)
+    for (int c = 0; c < 3; ++c) {
+      const double f = values[i][std::size_t(c)];
+      texels.moments[i][std::size_t(c)] = {f, 0, 0, f * f};
+      texels.constant_value[i][std::size_t(c)] = f;
+    }
   for (int side = n / 2, child_side = 1; side >= 1; side /= 2, child_side *= 2) {
     const Level& below = levels.back();
     Level level;
@@ -156,51 +173,205 @@ std::vector<Level> pyramid(const Grid& grid) {
   return levels;
 }
 
-// Quadrant q of a block from node i of a level whose nodes are `texels` texels wide.
-void set_quadrant(FirstOrderBlock& block, int q, const Level& level, std::size_t i, int texels) {
+// Quadrant q of a block (and of its data, for a tree built from packed trees) from node i of a
+// level whose nodes are `texels` texels wide.
+void set_quadrant(FirstOrderBlock& block, FirstOrderData* data, int q, const Level& level,
+                  std::size_t i, int texels) {
   const double count = double(texels) * texels;
   const double slope_scale = std::sqrt(12.0) / (texels * count);
   for (int c = 0; c < 3; ++c) {
     const int lane = 3 * q + c;
+    double residual = 0, slopes = 0;
     if (level.constant[i]) {
-      block.mean[lane] = level.constant_value[i][c];
-      continue;  // exact: slopes and residual 0
+      block.mean[lane] = float(level.constant_value[i][c]);  // exact: slopes and residual 0
+    } else {
+      const Moments& m = level.moments[i][c];
+      const double mean = m.sum / count, slope_u = m.sum_u * slope_scale,
+                   slope_v = m.sum_v * slope_scale, mean_square = m.sum_squares / count;
+      // The sums' rounding moves the difference by a few 2^-40 of the mean square at most.
+      const double residual_square =
+          std::max(0.0, mean_square - mean * mean - slope_u * slope_u - slope_v * slope_v) +
+          0x1p-34 * mean_square;
+      residual = std::sqrt(residual_square) * (1 + 0x1p-50);
+      slopes = std::sqrt(slope_u * slope_u + slope_v * slope_v);
+      block.mean[lane] = float(mean);
+      block.slope_u[lane] = float(slope_u);
+      block.slope_v[lane] = float(slope_v);
+      block.residual[lane] = round_up(residual);
     }
-    const Moments& m = level.moments[i][c];
-    const double mean = m.sum / count, slope_u = m.sum_u * slope_scale,
-                 slope_v = m.sum_v * slope_scale, mean_square = m.sum_squares / count;
-    // The sums' rounding moves the difference by a few 2^-40 of the mean square at most.
-    const double residual_square =
-        std::max(0.0, mean_square - mean * mean - slope_u * slope_u - slope_v * slope_v) +
-        0x1p-34 * mean_square;
-    block.mean[lane] = float(mean);
-    block.slope_u[lane] = float(slope_u);
-    block.slope_v[lane] = float(slope_v);
-    block.residual[lane] = round_up(std::sqrt(residual_square) * (1 + 0x1p-50));
+    if (!data) continue;
+    // Sums of a few terms' products in doubles: 2^-40 covers their rounding.
+    const auto up = [](double x) { return round_up(x * (1 + 0x1p-40)); };
+    const std::array<double, 3>& e = level.data_rms[i];
+    const std::array<double, 3>& moment = level.data_moment[i];
+    const std::array<double, 3>& rounding_rms = level.data_rounding_rms[i];
+    data->residual[lane] = up(residual_with_data(double(block.residual[lane]), e[c],
+                                                 rounding_rms[c], slopes, moment[c], level.terms));
+    data->rms[lane] = up(e[c]);
+    data->rounding_rms[lane] = up(rounding_rms[c]);
+    data->moment[lane] = up(moment[c] + std::sqrt(3.0) * level.data_rounding[i][c]);
+    data->rounding[lane] = up(level.data_rounding[i][c]);
+    if (!level.constant[i]) data->charge[lane] = up(level.leaf_bound[i][c]);
   }
 }
 
 // Appends the block of node (x, y) of levels[level]'s quadrants, then theirs; returns its index.
+// With data (a tree built from packed trees), appends their data beside them.
 std::int32_t append_block(const std::vector<Level>& levels, int level, int x, int y,
-                          std::vector<FirstOrderBlock>& blocks) {
+                          std::vector<FirstOrderBlock>& blocks, std::vector<FirstOrderData>* data) {
   const std::int32_t index = std::int32_t(blocks.size());
   blocks.emplace_back();
+  if (data) data->emplace_back();
   const Level& below = levels[level - 1];
   const int texels = 1 << (level - 1);
   for (int q = 0; q < 4; ++q) {
     const int cx = 2 * x + (q & 1), cy = 2 * y + (q >> 1);
     const std::size_t j = std::size_t(cy) * below.side + cx;
-    set_quadrant(blocks[index], q, below, j, texels);
+    set_quadrant(blocks[index], data ? &(*data)[index] : nullptr, q, below, j, texels);
   }
   for (int q = 0; q < 4; ++q) {
     const int cx = 2 * x + (q & 1), cy = 2 * y + (q >> 1);
     const std::size_t j = std::size_t(cy) * below.side + cx;
     if (level - 1 > 0 && !below.constant[j]) {
-      const std::int32_t child = append_block(levels, level - 1, cx, cy, blocks);
+      const std::int32_t child = append_block(levels, level - 1, cx, cy, blocks, data);
       blocks[index].child[q] = child;
     }
   }
   return index;
+}
+
+// One term's leaves, texel by texel: each leaf's side in texels, its bound, and how far its
+// values' rounding may move them from the data's mean over it, the weighted groups' summed by
+// |weight|.
+struct TermLeaves {
+  std::vector<int> side;
+  Texels bound, rounding;
+};
+
+// Adds the term's weighted values to `values` (n x n texels) and returns its leaves.
+TermLeaves add_term(const WeightedTerm& term, Texels& values) {
+  const PackedTreeView& tree = term.tree;
+  const int n = tree.shape().resolution, channels = tree.shape().channels;
+  TermLeaves leaves;
+  leaves.side.assign(values.size(), 0);
+  leaves.bound.assign(values.size(), {});
+  leaves.rounding.assign(values.size(), {});
+  for_each_leaf(tree, [&](int node, int q, int level, int x, int y) {
+    const int size = n >> level;
+    std::array<double, 3> value{}, bound{}, rounding{};
+    for (int c = 0; c < 3; ++c) {
+      const int channel = std::min(c, channels - 1);
+      for (int g = 0; g < term.groups; ++g) {
+        const double weight = term.weights[std::size_t(g)];
+        const double v = tree.value(node, g, channel, q);
+        value[std::size_t(c)] += weight * v;
+        bound[std::size_t(c)] += std::abs(weight) * double(tree.bound(node, g, channel, q));
+        // The half's rounding, and 2^-20 of the value for the average's own arithmetic.
+        rounding[std::size_t(c)] +=
+            std::abs(weight) * (tree.rounding(node, g, channel, q) + 0x1p-20 * std::abs(v));
+      }
+    }
+    for (int ty = y * size; ty < (y + 1) * size; ++ty)
+      for (int tx = x * size; tx < (x + 1) * size; ++tx) {
+        const std::size_t i = std::size_t(ty) * std::size_t(n) + std::size_t(tx);
+        for (std::size_t c = 0; c < 3; ++c)
+          values[i][c] += value[c];
+        leaves.side[i] = size;
+        leaves.bound[i] = bound;
+        leaves.rounding[i] = rounding;
+      }
+  });
+  return leaves;
+}
+
+// Adds one term's data to every level of the pyramid. On a node that lies inside one of the
+// term's leaves the term is not live (its leaf's bound is charged where the descent passes it);
+// on a node made of its leaves, it adds the RMS of their bounds; the mean of their bounds times
+// the side of their leaf over the node's (a plane's slopes vary that much less across a smaller
+// leaf); and the mean and the RMS of their rounding. On a node that is one of its leaves, it
+// adds its bound to the node's charge, charged if the function goes on.
+void add_term_data(std::vector<Level>& levels, const TermLeaves& leaves) {
+  const int n = levels[0].side;
+  // Per node of the current level: sums of squared bounds, of bounds times their leaf's side,
+  // of roundings and of squared roundings, three channels each.
+  std::vector<std::array<double, 12>> sums(std::size_t(n) * std::size_t(n));
+  for (std::size_t i = 0; i < sums.size(); ++i)
+    for (std::size_t c = 0; c < 3; ++c) {
+      const double bound = leaves.bound[i][c], rounding = leaves.rounding[i][c];
+      sums[i][c] = bound * bound;
+      sums[i][3 + c] = bound * leaves.side[i];
+      sums[i][6 + c] = rounding;
+      sums[i][9 + c] = rounding * rounding;
+    }
+  for (std::size_t k = 0; k < levels.size(); ++k) {
+    Level& level = levels[k];
+    const int side = level.side, texels = 1 << k;
+    if (k > 0) {
+      std::vector<std::array<double, 12>> above(std::size_t(side) * std::size_t(side));
+      for (int y = 0; y < side; ++y)
+        for (int x = 0; x < side; ++x)
+          for (int q = 0; q < 4; ++q) {
+            const std::size_t j = std::size_t(2 * y + (q >> 1)) * std::size_t(2 * side) +
+                                  std::size_t(2 * x + (q & 1));
+            for (std::size_t s = 0; s < 12; ++s)
+              above[std::size_t(y) * std::size_t(side) + std::size_t(x)][s] += sums[j][s];
+          }
+      sums = std::move(above);
+    }
+    if (level.data_rms.empty()) {
+      level.data_rms.assign(sums.size(), {});
+      level.data_rounding_rms.assign(sums.size(), {});
+      level.data_moment.assign(sums.size(), {});
+      level.data_rounding.assign(sums.size(), {});
+      level.leaf_bound.assign(sums.size(), {});
+    }
+    const double area = double(texels) * texels;
+    for (int y = 0; y < side; ++y)
+      for (int x = 0; x < side; ++x) {
+        const std::size_t i = std::size_t(y) * std::size_t(side) + std::size_t(x);
+        const std::size_t first = std::size_t(y) * std::size_t(texels) * std::size_t(n) +
+                                  std::size_t(x) * std::size_t(texels);
+        const int leaf_side = leaves.side[first];
+        if (leaf_side > texels) continue;  // inside one of the term's leaves
+        for (std::size_t c = 0; c < 3; ++c) {
+          level.data_rms[i][c] += std::sqrt(sums[i][c] / area);
+          level.data_moment[i][c] += sums[i][3 + c] / (area * texels);
+          level.data_rounding[i][c] += sums[i][6 + c] / area;
+          level.data_rounding_rms[i][c] += std::sqrt(sums[i][9 + c] / area);
+          if (leaf_side == texels) level.leaf_bound[i][c] += leaves.bound[first][c];
+        }
+      }
+  }
+}
+
+// The first-order tree of a pyramid, breadth first, with its data if the pyramid has them.
+FirstOrderTree tree_of(const std::vector<Level>& levels) {
+  const bool with_data = !levels[0].data_rms.empty();
+  std::vector<FirstOrderBlock> depth_first;
+  std::vector<FirstOrderData> data_depth_first;
+  append_block(levels, int(levels.size()) - 1, 0, 0, depth_first,
+               with_data ? &data_depth_first : nullptr);
+  // Breadth first, as packed trees lie: a level's blocks next to each other, the top levels in
+  // the first few lines.
+  std::vector<std::int32_t> order{0}, renumbered(depth_first.size(), -1);
+  renumbered[0] = 0;
+  for (std::size_t i = 0; i < order.size(); ++i)
+    for (const std::int32_t child : depth_first[std::size_t(order[i])].child)
+      if (child >= 0) {
+        renumbered[std::size_t(child)] = std::int32_t(order.size());
+        order.push_back(child);
+      }
+  FirstOrderTree tree;
+  tree.resolution = levels[0].side;
+  tree.terms = levels[0].terms;
+  tree.blocks.reserve(depth_first.size());
+  for (const std::int32_t k : order) {
+    tree.blocks.push_back(depth_first[std::size_t(k)]);
+    for (std::int32_t& child : tree.blocks.back().child)
+      if (child >= 0) child = renumbered[std::size_t(child)];
+    if (with_data) tree.data.push_back(data_depth_first[std::size_t(k)]);
+  }
+  return tree;
 }
 
 }  // namespace
@@ -213,53 +384,101 @@ FirstOrderTree first_order_tree(const Grid& grid) {
   if (grid.channels != 1 && grid.channels != 3)
     throw std::invalid_argument("first-order tree of a grid of " + std::to_string(grid.channels) +
                                 " channels (1 or 3)");
-  const std::vector<Level> levels = pyramid(grid);
-  std::vector<FirstOrderBlock> depth_first;
-  append_block(levels, int(levels.size()) - 1, 0, 0, depth_first);
-  // Breadth first, as packed trees lie: a level's blocks next to each other, the top levels in
-  // the first few lines.
-  std::vector<std::int32_t> order{0}, renumbered(depth_first.size(), -1);
-  renumbered[0] = 0;
-  for (std::size_t i = 0; i < order.size(); ++i)
-    for (const std::int32_t child : depth_first[std::size_t(order[i])].child)
-      if (child >= 0) {
-        renumbered[std::size_t(child)] = std::int32_t(order.size());
-        order.push_back(child);
-      }
-  FirstOrderTree tree;
-  tree.resolution = n;
-  tree.blocks.reserve(depth_first.size());
-  for (const std::int32_t k : order) {
-    tree.blocks.push_back(depth_first[std::size_t(k)]);
-    for (std::int32_t& child : tree.blocks.back().child)
-      if (child >= 0) child = renumbered[std::size_t(child)];
+  Texels texels(std::size_t(n) * std::size_t(n));
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x)
+      for (int c = 0; c < 3; ++c)
+        texels[std::size_t(y) * std::size_t(n) + std::size_t(x)][std::size_t(c)] =
+            grid.at(0, std::min(c, grid.channels - 1), x, y);
+  check_texels(texels);
+  return tree_of(pyramid(n, texels));
+}
+
+FirstOrderTree first_order_tree(std::span<const WeightedTerm> terms) {
+  if (terms.empty() || terms.size() > kMaxFoldedTerms)
+    throw std::invalid_argument("first-order tree of " + std::to_string(terms.size()) +
+                                " terms (1 to " + std::to_string(kMaxFoldedTerms) + ")");
+  const int n = terms.front().tree.shape().resolution;
+  for (const WeightedTerm& term : terms) {
+    const PackedShape& shape = term.tree.shape();
+    if (shape.resolution != n || n < 2 || (n & (n - 1)) != 0 || term.tree.node_count() == 0)
+      throw std::invalid_argument("first-order tree of terms of resolutions " + std::to_string(n) +
+                                  " and " + std::to_string(shape.resolution) +
+                                  " (one, a power of two from 2)");
+    if (term.groups < 1 || term.groups > shape.bounded_groups)
+      throw std::invalid_argument("first-order tree of " + std::to_string(term.groups) +
+                                  " groups of a tree with bounds on " +
+                                  std::to_string(shape.bounded_groups));
+    for (int g = 0; g < term.groups; ++g)
+      if (!std::isfinite(term.weights[std::size_t(g)]))
+        throw std::invalid_argument("first-order tree of a term weighted by " +
+                                    std::to_string(term.weights[std::size_t(g)]));
   }
-  return tree;
+  Texels values(std::size_t(n) * std::size_t(n));
+  std::vector<TermLeaves> leaves;
+  for (const WeightedTerm& term : terms)
+    leaves.push_back(add_term(term, values));
+  check_texels(values);
+  std::vector<Level> levels = pyramid(n, values);
+  for (const TermLeaves& term : leaves)
+    add_term_data(levels, term);
+  for (Level& level : levels)
+    level.terms = int(terms.size());
+  return tree_of(levels);
+}
+
+FirstOrderTree first_order_tree(const PackedTreeView& tree) {
+  const WeightedTerm term{tree, {1, 0, 0}, 1};
+  return first_order_tree(std::span<const WeightedTerm>(&term, 1));
 }
 
 FirstOrderTree without_slopes(const FirstOrderTree& tree) {
   FirstOrderTree flat = tree;
-  for (FirstOrderBlock& block : flat.blocks)
+  for (std::size_t k = 0; k < flat.blocks.size(); ++k) {
+    FirstOrderBlock& block = flat.blocks[k];
     for (std::size_t i = 0; i < 12; ++i) {
       const double residual = block.residual[i], u = block.slope_u[i], v = block.slope_v[i];
       // The slopes were rounded to nearest floats: up by 2^-22 for that.
       block.residual[i] = round_up(std::sqrt(residual * residual + u * u + v * v) * (1 + 0x1p-22));
       block.slope_u[i] = block.slope_v[i] = 0;
+      if (flat.data.empty()) continue;
+      // The data's residual about the mean: a plane without slopes.
+      FirstOrderData& data = flat.data[k];
+      data.residual[i] = round_up(residual_with_data(block.residual[i], data.rms[i],
+                                                     data.rounding_rms[i], 0, 0, flat.terms) *
+                                  (1 + 0x1p-40));
     }
+  }
   return flat;
 }
 
 namespace {
 
-// The four groups of a block as sixteen lanes each, and per lane the most by which the block's
-// coefficients may differ from the exact planes' beyond float rounding (0 for float blocks).
-void load_block(const FirstOrderBlock& block, float, Lanes& mean, Lanes& slope_u, Lanes& slope_v,
-                Lanes& residual, Lanes& rounding) {
-  load(block.mean, mean);
-  load(block.slope_u, slope_u);
-  load(block.slope_v, slope_v);
-  load(block.residual, residual);
-  rounding = Lanes{};
+// Block k of a tree as sixteen lanes a group: its coefficients; its residual, the data's for a
+// tree built from packed trees; what multiplies the other side's absolute slopes in a pair's
+// bound (the data moment) and its absolute mean (the data's rounding); how far the coefficients
+// may lie from the exact planes' beyond float rounding (compact blocks: their rounding to
+// halves); and the charges.
+struct BlockLanes {
+  Lanes mean, slope_u, slope_v, residual, moment, rounding, coefficient_rounding, charge;
+};
+
+void load_block(const FirstOrderTree& tree, std::size_t k, float, BlockLanes& lanes) {
+  const FirstOrderBlock& block = tree.blocks[k];
+  load(block.mean, lanes.mean);
+  load(block.slope_u, lanes.slope_u);
+  load(block.slope_v, lanes.slope_v);
+  load(block.residual, lanes.residual);
+  lanes.coefficient_rounding = Lanes{};
+  if (tree.data.empty()) {
+    lanes.moment = lanes.rounding = lanes.charge = Lanes{};
+    return;
+  }
+  const FirstOrderData& data = tree.data[k];
+  load(data.residual, lanes.residual);
+  load(data.moment, lanes.moment);
+  load(data.rounding, lanes.rounding);
+  load(data.charge, lanes.charge);
 }
 
 // Twelve halves from `halves` on, times scale, in lanes 0..11; lanes 12..15 zero.
@@ -277,20 +496,43 @@ void load_halves(const std::uint16_t* halves, float scale, Lanes& lanes) {
   lanes *= scale;
 }
 
-void load_block(const CompactFirstOrderBlock& block, float scale, Lanes& mean, Lanes& slope_u,
-                Lanes& slope_v, Lanes& residual, Lanes& rounding) {
-  load_halves(&block.halves[0], scale, mean);
-  load_halves(&block.halves[12], scale, slope_u);
-  load_halves(&block.halves[24], scale, slope_v);
-  load_halves(&block.halves[36], scale, residual);
+// Four halves, one per quadrant, times scale, each in its quadrant's three lanes.
+void load_quadrant_halves(const std::uint16_t* halves, float scale, Lanes& lanes) {
+  lanes = Lanes{};
+  for (int i = 0; i < 12; ++i)
+    lanes[i] = half_to_float(halves[i / 3]);
+  lanes *= scale;
+}
+
+void load_block(const CompactFirstOrderTree& tree, std::size_t k, float scale, BlockLanes& lanes) {
+  const CompactFirstOrderBlock& block = tree.blocks[k];
+  load_halves(&block.halves[0], scale, lanes.mean);
+  load_halves(&block.halves[12], scale, lanes.slope_u);
+  load_halves(&block.halves[24], scale, lanes.slope_v);
+  load_halves(&block.halves[36], scale, lanes.residual);
   // Rounded to nearest halves from floats: within 2^-11 of the largest (and a float's 2^-24
   // before it), or half a subnormal step of scale.
   Lanes m, u, v;
-  absolute(mean, m);
-  absolute(slope_u, u);
-  absolute(slope_v, v);
+  absolute(lanes.mean, m);
+  absolute(lanes.slope_u, u);
+  absolute(lanes.slope_v, v);
   const Lanes largest = m > u ? (m > v ? m : v) : (u > v ? u : v);
-  rounding = 0x1.02p-11f * largest + 0x1p-24f * scale;
+  lanes.coefficient_rounding = 0x1.02p-11f * largest + 0x1p-24f * scale;
+  lanes.charge = Lanes{};
+  if (!tree.with_data) {
+    lanes.moment = lanes.rounding = Lanes{};
+    return;
+  }
+  // The data's moments and rounding, one per quadrant for its three channels.
+  load_quadrant_halves(&block.halves[48], scale, lanes.moment);
+  load_quadrant_halves(&block.halves[52], scale, lanes.rounding);
+}
+
+// The smallest half at least x (x >= 0, within the half range).
+std::uint16_t half_at_least(float x) {
+  std::uint16_t h = float_to_half(x);
+  if (half_to_float(h) < x) ++h;
+  return h;
 }
 
 float scale_of(const FirstOrderTree&) {
@@ -316,7 +558,11 @@ template <typename Tree>
 class Descent {
  public:
   Descent(const FirstOrderTree& a, const Tree& b, double accuracy)
-      : a_(&a), b_(&b), scale_(scale_of(b)), accuracy_(accuracy) {
+      : a_(&a),
+        b_(&b),
+        scale_(scale_of(b)),
+        accuracy_(accuracy),
+        charges_(has_charges(a) || has_charges(b)) {
     if (a.blocks.empty() || b.blocks.empty())
       throw std::invalid_argument("first-order convolution of an empty tree");
     if (a.resolution != b.resolution)
@@ -327,10 +573,10 @@ class Descent {
       throw std::invalid_argument("first-order convolution to an accuracy of " +
                                   std::to_string(accuracy));
     std::array<double, 3> estimate{};
-    Lanes ma, ua, va, ra, mb, ub, vb, rb, rounding;
-    load_block(a.blocks[0], 1, ma, ua, va, ra, rounding);
-    load_block(b.blocks[0], scale_, mb, ub, vb, rb, rounding);
-    const Lanes product = ma * mb + ua * ub + va * vb;
+    BlockLanes la, lb;
+    load_block(a, 0, 1, la);
+    load_block(*b_, 0, scale_, lb);
+    const Lanes product = la.mean * lb.mean + la.slope_u * lb.slope_u + la.slope_v * lb.slope_v;
     for (int i = 0; i < 12; ++i)
       estimate[std::size_t(i % 3)] += 0.25 * double(product[i]);
     half_accuracy_ = float(accuracy / 2);
@@ -354,25 +600,40 @@ class Descent {
       const FirstOrderBlock& ba = a_->blocks[std::size_t(pair.a)];
       const auto& bb = b_->blocks[std::size_t(pair.b)];
       // In floats, twelve lanes at once: the rounding term covers the arithmetic's rounding.
-      Lanes ma, ua, va, ra, mb, ub, vb, rb, rounding_a, rounding_b;
-      load_block(ba, 1, ma, ua, va, ra, rounding_a);
-      load_block(bb, scale_, mb, ub, vb, rb, rounding_b);
-      const Lanes product = ma * mb + ua * ub + va * vb;
-      Lanes sum_a, sum_b, magnitude;
-      absolute_sum(ma, ua, va, sum_a);
-      absolute_sum(mb, ub, vb, sum_b);
+      BlockLanes la, lb;
+      load_block(*a_, std::size_t(pair.a), 1, la);
+      load_block(*b_, std::size_t(pair.b), scale_, lb);
+      const Lanes product = la.mean * lb.mean + la.slope_u * lb.slope_u + la.slope_v * lb.slope_v;
+      // Absolute slopes and means, raised by what their rounding may have lowered them.
+      Lanes slopes_a, slopes_b, mean_a, mean_b, magnitude;
+      absolute(la.slope_u, slopes_a);
+      absolute(la.slope_v, magnitude);
+      slopes_a += magnitude + 2.0f * la.coefficient_rounding;
+      absolute(lb.slope_u, slopes_b);
+      absolute(lb.slope_v, magnitude);
+      slopes_b += magnitude + 2.0f * lb.coefficient_rounding;
+      absolute(la.mean, mean_a);
+      absolute(lb.mean, mean_b);
+      mean_a += la.coefficient_rounding;
+      mean_b += lb.coefficient_rounding;
+      const Lanes sum_a = mean_a + slopes_a, sum_b = mean_b + slopes_b;
       absolute(product, magnitude);
-      const Lanes pair_bound =
-          ra * rb + sum_a * rounding_b + kRounding * sum_a * sum_b + kUnderflow;
+      const Lanes pair_bound = la.residual * lb.residual + sum_a * lb.coefficient_rounding +
+                               sum_b * la.coefficient_rounding + slopes_a * lb.moment +
+                               slopes_b * la.moment + mean_a * lb.rounding + mean_b * la.rounding +
+                               kRounding * sum_a * sum_b + kUnderflow;
       const Ints within_lanes = pair_bound <= half_accuracy_ * magnitude + budget_;
       const unsigned within = horizontal_or(within_lanes & kLaneBits);
       unsigned stops = 0;  // bit q: quadrant q stops
       for (int q = 0; q < 4; ++q) {
-        const bool go_on = ba.child[q] >= 0 && bb.child[q] >= 0;
+        const std::int32_t child_a = ba.child_block(q), child_b = bb.child_block(q);
+        const bool go_on = child_a >= 0 && child_b >= 0;
         if (go_on && (accuracy_ == 0 || ((within >> (3 * q)) & 7) != 7)) {
-          next_[count++] = {ba.child[q], bb.child[q]};
-          prefetch(a_->blocks[std::size_t(ba.child[q])]);
-          prefetch(b_->blocks[std::size_t(bb.child[q])]);
+          next_[count++] = {child_a, child_b};
+          prefetch(a_->blocks[std::size_t(child_a)]);
+          prefetch(b_->blocks[std::size_t(child_b)]);
+          prefetch_data(*a_, child_a);
+          prefetch_data(*b_, child_b);
         } else {
           stops |= 1u << q;
         }
@@ -380,7 +641,16 @@ class Descent {
       Lanes stop;
       load(kQuadrantLanes[stops], stop);
       add_widened(stop * product, value_low, value_high);
-      add_widened(stop * pair_bound, bound_low, bound_high);
+      Lanes bound = stop * pair_bound;
+      if (charges_) {
+        // Where the descent goes on, the terms whose leaf the quadrant is, against the other
+        // side's RMS over it (at most its absolute coefficients, its residual and what their
+        // rounding moved): each term's bound charged once, as the terms' own descents would.
+        Lanes going_on;
+        load(kQuadrantLanes[~stops & 15u], going_on);
+        bound += going_on * (la.charge * (sum_b + lb.residual) + lb.charge * (sum_a + la.residual));
+      }
+      add_widened(bound, bound_low, bound_high);
     }
     const double area = std::ldexp(1.0, -2 * depth_);  // of the level's quadrants
     value_low_ += area * value_low;
@@ -416,6 +686,13 @@ class Descent {
   struct Pair {
     std::int32_t a, b;
   };
+  static void prefetch_data(const FirstOrderTree& tree, std::int32_t k) {
+    if (!tree.data.empty()) prefetch(tree.data[std::size_t(k)]);
+  }
+  static void prefetch_data(const CompactFirstOrderTree&, std::int32_t) {}
+  static bool has_charges(const FirstOrderTree& tree) { return !tree.data.empty(); }
+  static bool has_charges(const CompactFirstOrderTree&) { return false; }
+
   template <typename Block>
   static void prefetch(const Block& block) {
     const char* bytes = reinterpret_cast<const char*>(&block);
@@ -427,6 +704,7 @@ class Descent {
   const Tree* b_;
   float scale_;
   double accuracy_;
+  bool charges_;
   float half_accuracy_ = 0;
   Lanes budget_{};  // accuracy / 2 x E, lane by lane, E the roots' planes' estimate
   Wide value_low_{}, value_high_{}, bound_low_{}, bound_high_{};
@@ -456,13 +734,34 @@ FirstOrderConvolution convolve_first_order(const FirstOrderTree& a, const Compac
 }
 
 CompactFirstOrderTree compact(const FirstOrderTree& tree) {
+  const bool with_data = !tree.data.empty();
+  // Per block, the residuals with the data's RMS added, rounded up; and per quadrant the largest
+  // data moment and rounding of its channels.
+  std::vector<std::array<float, 12>> residuals(tree.blocks.size());
+  std::vector<std::array<float, 4>> moments(tree.blocks.size()), roundings(tree.blocks.size());
   float largest = 0;
-  for (const FirstOrderBlock& block : tree.blocks)
-    for (std::size_t i = 0; i < 12; ++i)
+  for (std::size_t k = 0; k < tree.blocks.size(); ++k) {
+    const FirstOrderBlock& block = tree.blocks[k];
+    for (std::size_t i = 0; i < 12; ++i) {
+      double residual = block.residual[i];
+      if (with_data) {
+        const FirstOrderData& data = tree.data[k];
+        if (data.charge[i] > 0)
+          throw std::invalid_argument(
+              "compact form of a first-order tree with charges (a sum of terms)");
+        residual = data.residual[i];
+        moments[k][i / 3] = std::max(moments[k][i / 3], data.moment[i]);
+        roundings[k][i / 3] = std::max(roundings[k][i / 3], data.rounding[i]);
+      }
+      residuals[k][i] = round_up(residual);
       largest = std::max({largest, std::abs(block.mean[i]), std::abs(block.slope_u[i]),
-                          std::abs(block.slope_v[i]), block.residual[i]});
+                          std::abs(block.slope_v[i]), residuals[k][i], moments[k][i / 3],
+                          roundings[k][i / 3]});
+    }
+  }
   CompactFirstOrderTree out;
   out.resolution = tree.resolution;
+  out.with_data = with_data;
   // The largest coefficient below 2^15 in units of the scale, and so below the largest half
   // (65504) after rounding up; the scale a normal float, so that halves times it are exact.
   out.scale = largest > 0 ? std::ldexp(1.0f, std::max(std::ilogb(largest) - 14, -126)) : 1;
@@ -470,14 +769,24 @@ CompactFirstOrderTree compact(const FirstOrderTree& tree) {
   for (std::size_t k = 0; k < tree.blocks.size(); ++k) {
     const FirstOrderBlock& from = tree.blocks[k];
     CompactFirstOrderBlock& to = out.blocks[k];
-    to.child = from.child;
+    // Breadth first, a block's children follow one another in quadrant order.
+    for (int q = 0; q < 4; ++q) {
+      const std::int32_t child = from.child[std::size_t(q)];
+      if (child < 0) continue;
+      if (to.children == 0) to.first_child = child;
+      to.children = std::uint8_t(to.children | 1u << q);
+      if (to.child_block(q) != child)
+        throw std::logic_error("first-order tree whose blocks' children are not consecutive");
+    }
     for (std::size_t i = 0; i < 12; ++i) {
       to.halves[i] = float_to_half(from.mean[i] / out.scale);
       to.halves[12 + i] = float_to_half(from.slope_u[i] / out.scale);
       to.halves[24 + i] = float_to_half(from.slope_v[i] / out.scale);
-      std::uint16_t residual = float_to_half(from.residual[i] / out.scale);
-      if (half_to_float(residual) < from.residual[i] / out.scale) ++residual;  // round up
-      to.halves[36 + i] = residual;
+      to.halves[36 + i] = half_at_least(residuals[k][i] / out.scale);
+    }
+    for (std::size_t q = 0; q < 4; ++q) {
+      to.halves[48 + q] = half_at_least(moments[k][q] / out.scale);
+      to.halves[52 + q] = half_at_least(roundings[k][q] / out.scale);
     }
   }
   return out;

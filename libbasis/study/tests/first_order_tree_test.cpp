@@ -1,8 +1,9 @@
 // First-order trees: their products hold within the certified bound of the plain texel loop's
 // integral (dense_convolve_naive, a second implementation) at every accuracy, with and without
 // their slopes, are exact up to rounding at accuracy 0, keep the bound within about the
-// accuracy asked for, and stop earlier than means alone on smooth functions; bad arguments are
-// refused.
+// accuracy asked for, and stop earlier than means alone on smooth functions. Built from packed
+// trees cut at a tolerance, and from weighted sums of them, their bounds hold against the data
+// the trees were cut from. Bad arguments are refused.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -13,6 +14,8 @@
 #include <vector>
 
 #include "basis/core/dense.h"
+#include "basis/core/packed_tree.h"
+#include "basis/core/projection.h"
 #include "basis/study/first_order_tree.h"
 #include "support/test_functions.h"
 
@@ -37,13 +40,13 @@ std::array<double, 3> exact_product(const Grid& a, const Grid& b) {
   return sum;
 }
 
-// Checks the three forms (planes, means, b compact) against the double loop at `accuracies`.
-void expect_within_bounds(const Grid& grid_a, const Grid& grid_b,
-                          std::initializer_list<double> accuracies, const std::string& what) {
-  const FirstOrderTree a = first_order_tree(grid_a), b = first_order_tree(grid_b);
+// Checks the three forms of two trees (planes, means, b compact) against `exact` at
+// `accuracies`.
+void expect_forms_within_bounds(const FirstOrderTree& a, const FirstOrderTree& b,
+                                const std::array<double, 3>& exact,
+                                std::initializer_list<double> accuracies, const std::string& what) {
   const FirstOrderTree flat_a = without_slopes(a), flat_b = without_slopes(b);
   const CompactFirstOrderTree compact_b = compact(b);
-  const std::array<double, 3> exact = exact_product(grid_a, grid_b);
   for (const double accuracy : accuracies)
     for (const std::string form : {"planes", "means", "compact"}) {
       const Convolution r = form == "planes" ? convolve_first_order(a, b, accuracy).convolution
@@ -57,6 +60,13 @@ void expect_within_bounds(const Grid& grid_a, const Grid& grid_b,
         EXPECT_LE(std::abs(double(r.value[c]) - exact[c]), double(r.bound[c]));
       }
     }
+}
+
+// Checks the three forms of two grids' trees against the double loop at `accuracies`.
+void expect_within_bounds(const Grid& grid_a, const Grid& grid_b,
+                          std::initializer_list<double> accuracies, const std::string& what) {
+  expect_forms_within_bounds(first_order_tree(grid_a), first_order_tree(grid_b),
+                             exact_product(grid_a, grid_b), accuracies, what);
 }
 
 // The grid with every texel's absolute value.
@@ -243,7 +253,135 @@ TEST(FirstOrderTree, BlocksLieBreadthFirstAndCompactKeepsTheirOrder) {
   const CompactFirstOrderTree small = compact(tree);
   ASSERT_EQ(small.blocks.size(), tree.blocks.size());
   for (std::size_t k = 0; k < tree.blocks.size(); ++k)
-    EXPECT_EQ(small.blocks[k].child, tree.blocks[k].child);
+    for (int q = 0; q < 4; ++q)
+      EXPECT_EQ(small.blocks[k].child_block(q), tree.blocks[k].child_block(q));
+}
+
+// A grid cut at a relative tolerance and packed: halves and l2 bounds on `groups` groups, or
+// (exact_texels) a capture's form, texel nodes of values alone in shared-exponent words.
+PackedTree cut_and_pack(const Grid& grid, double tolerance, bool exact_texels) {
+  ProjectionOptions options;
+  options.tolerance = tolerance;
+  options.cut_on_all_groups = grid.groups > 1;
+  const Quadtree tree = project(grid, options);
+  return exact_texels ? pack_exact_texels(tree) : pack(tree, BoundKind::l2, grid.groups);
+}
+
+// Built from packed trees, the bound covers what the trees leave out of the grids they were cut
+// from. Trees built from the packed trees' reconstructions (the grids' study) leave it out, and
+// fail against the grids: the control that this test can fail.
+TEST(FirstOrderTree, TreesOfPackedTreesHoldAgainstTheirData) {
+  int reconstruction_failures = 0, cases = 0;
+  for (const int n : {16, 64})
+    for (const double tolerance : {0.05, 0.3})
+      for (const int channels_a : {1, 3})
+        for (const auto& [name_a, grid_a] : test_functions(n, channels_a, 81))
+          for (const auto& [name_b, grid_b] : test_functions(n, 3, 82))
+            for (const bool exact_texels : {false, true}) {
+              const PackedTree packed_a = cut_and_pack(grid_a, tolerance, false);
+              const PackedTree packed_b = cut_and_pack(grid_b, tolerance, exact_texels);
+              const std::array<double, 3> exact = exact_product(grid_a, grid_b);
+              expect_forms_within_bounds(
+                  first_order_tree(packed_a.view()), first_order_tree(packed_b.view()), exact,
+                  {0.0, 0.01, 0.1, 0.5},
+                  name_a + " x " + name_b + " at " + std::to_string(n) + ", tolerance " +
+                      std::to_string(tolerance) + (exact_texels ? ", exact texels" : ""));
+              const Convolution control =
+                  convolve_first_order(first_order_tree(reconstruct(packed_a.view())),
+                                       first_order_tree(reconstruct(packed_b.view())), 0)
+                      .convolution;
+              for (std::size_t c = 0; c < 3; ++c) {
+                ++cases;
+                if (std::abs(double(control.value[c]) - exact[c]) > double(control.bound[c]))
+                  ++reconstruction_failures;
+              }
+            }
+  EXPECT_GT(reconstruction_failures, cases / 4);
+}
+
+// Where a packed tree's leaves hide slopes, the data's deviation inside them meets the planes to
+// first order. Functions of u built to make each of the data terms of the bound necessary: a
+// gentle ramp cut into four leaves against a steep one (the moment); a staircase whose steps
+// each fall back within their leaf, against a sawtooth kept to its texels, at accuracies that
+// stop above the leaves (the cross term of the data's residual); and a sum of two terms whose
+// leaves differ, a coarse staircase and a fine function that cancels its steps (the residual
+// of a sum, r + e).
+TEST(FirstOrderTree, LeavesThatHideSlopesHoldAgainstTheirData) {
+  const int n = 64;
+  const auto grid_of = [n](auto f) {
+    return testing::sample_grid(n, 3, [f](double u, double, int c) { return f(u) + 0.01 * c; });
+  };
+  const auto step = [](double u) { return std::floor(8 * u) / 8; };
+  const auto fall = [](double u) { return -0.2 * (8 * u - std::floor(8 * u) - 0.5); };
+  const Grid gentle = grid_of([](double u) { return 1 + 0.4 * u; }),
+             steep = grid_of([](double u) { return 1 + 3 * u; }),
+             stairs = grid_of([&](double u) { return 0.5 + step(u) + fall(u); }),
+             cancel = grid_of([&](double u) { return 1 - step(u) + 2 * fall(u); }),
+             sawtooth = grid_of([&](double u) { return 0.4 + 3 * fall(u); });
+  const std::initializer_list<double> accuracies = {0.0, 0.003, 0.01, 0.05, 0.2};
+  // The gentle ramp is cut at the root's quadrants; the steep one is kept to its texels.
+  for (const bool exact_texels : {false, true})
+    expect_forms_within_bounds(first_order_tree(cut_and_pack(steep, 1e-4, false).view()),
+                               first_order_tree(cut_and_pack(gentle, 0.1, exact_texels).view()),
+                               exact_product(steep, gentle), accuracies, "steep x gentle");
+  // The staircase's leaves are eight texels wide, each holding one fall.
+  const PackedTree stairs_tree = cut_and_pack(stairs, 0.15, false);
+  for (const bool exact_texels : {false, true})
+    expect_forms_within_bounds(first_order_tree(stairs_tree.view()),
+                               first_order_tree(cut_and_pack(sawtooth, 1e-4, exact_texels).view()),
+                               exact_product(stairs, sawtooth), accuracies, "stairs x sawtooth");
+  // stairs + cancel = 3 + 3 fall, of which the trees hold 3 + 2 fall.
+  const PackedTree cancel_tree = cut_and_pack(cancel, 1e-4, false);
+  const std::vector<WeightedTerm> terms = {{stairs_tree.view(), {1, 0, 0}, 1},
+                                           {cancel_tree.view(), {1, 0, 0}, 1}};
+  Grid sum = stairs;
+  for (std::size_t i = 0; i < sum.texels.size(); ++i)
+    sum.texels[i] += cancel.texels[i];
+  for (const double tolerance : {1e-4, 1.0})
+    expect_forms_within_bounds(
+        first_order_tree(terms), first_order_tree(cut_and_pack(sawtooth, tolerance, true).view()),
+        exact_product(sum, sawtooth), {0.0, 0.003, 0.01},
+        "stairs + cancel x sawtooth, tolerance " + std::to_string(tolerance));
+}
+
+// The sum of weighted terms whose leaves differ (table entries cut at different tolerances, with
+// signed groups): where one term stops and the sum goes on, its bound is charged once; the
+// bound holds against the weighted sum of the grids the terms were cut from.
+TEST(FirstOrderTree, SumsOfTermsHoldAgainstTheirData) {
+  for (const int n : {16, 64}) {
+    const std::vector<testing::NamedGrid> bases = test_functions(n, 3, 83);
+    const Grid entry_a = three_groups(bases[1].grid, 84), entry_b = three_groups(bases[0].grid, 85),
+               entry_c = three_groups(bases[2].grid, 86);
+    const PackedTree fine = cut_and_pack(entry_a, 0.02, false),
+                     coarse = cut_and_pack(entry_b, 0.4, false),
+                     middle = cut_and_pack(entry_c, 0.1, false);
+    const std::vector<WeightedTerm> terms = {{fine.view(), {0.6f, 0.12f, -0.05f}, 3},
+                                             {coarse.view(), {0.3f, -0.2f, 0.07f}, 3},
+                                             {middle.view(), {0.1f, 0.0f, 0.3f}, 3}};
+    // The weighted sum of the source grids, texel by texel.
+    Grid sum(n, 3);
+    const Grid* sources[] = {&entry_a, &entry_b, &entry_c};
+    for (std::size_t t = 0; t < terms.size(); ++t)
+      for (int g = 0; g < 3; ++g)
+        for (int c = 0; c < 3; ++c)
+          for (int y = 0; y < n; ++y)
+            for (int x = 0; x < n; ++x)
+              sum.at(0, c, x, y) += terms[t].weights[std::size_t(g)] * sources[t]->at(g, c, x, y);
+    const FirstOrderTree a = first_order_tree(terms);
+    // Some quadrant is a term's leaf while the sum goes on.
+    float charged = 0;
+    for (const FirstOrderData& data : a.data)
+      for (const float charge : data.charge)
+        charged = std::max(charged, charge);
+    EXPECT_GT(charged, 0.0f);
+    for (const auto& [name_b, grid_b] : test_functions(n, 3, 87)) {
+      expect_forms_within_bounds(a, first_order_tree(cut_and_pack(grid_b, 0.05, true).view()),
+                                 exact_product(sum, grid_b), {0.0, 0.01, 0.1},
+                                 "sum x " + name_b + " at " + std::to_string(n));
+    }
+    // The terms' sum has charges: it has no compact form.
+    EXPECT_THROW(compact(a), std::invalid_argument);
+  }
 }
 
 TEST(FirstOrderTree, RefusesWhatItCannotConvolve) {
@@ -261,6 +399,27 @@ TEST(FirstOrderTree, RefusesWhatItCannotConvolve) {
   // A control: the same grids of one resolution convolve.
   EXPECT_NO_THROW(convolve_first_order(ta, ta, 0));
   EXPECT_NO_THROW(first_order_tree(Grid(16, 1)));
+  // Sums of packed trees: one resolution, bounds on every weighted group, finite weights, one to
+  // four terms.
+  const PackedTree pa = cut_and_pack(three_groups(a, 88), 0.1, false),
+                   pb = cut_and_pack(three_groups(b, 89), 0.1, false);
+  const PackedTree bounds_on_one = pack(project(three_groups(a, 90)), BoundKind::l2, 1);
+  const std::vector<WeightedTerm> resolutions = {{pa.view(), {1, 0, 0}, 1},
+                                                 {pb.view(), {1, 0, 0}, 1}};
+  EXPECT_THROW(first_order_tree(resolutions), std::invalid_argument);
+  const std::vector<WeightedTerm> unbounded = {{bounds_on_one.view(), {1, 0.5f, 0}, 2}};
+  EXPECT_THROW(first_order_tree(unbounded), std::invalid_argument);
+  const std::vector<WeightedTerm> not_finite = {
+      {pa.view(), {1, std::numeric_limits<float>::quiet_NaN(), 0}, 2}};
+  EXPECT_THROW(first_order_tree(not_finite), std::invalid_argument);
+  EXPECT_THROW(first_order_tree(std::span<const WeightedTerm>()), std::invalid_argument);
+  const std::vector<WeightedTerm> five(5, {pa.view(), {1, 0, 0}, 1});
+  EXPECT_THROW(first_order_tree(five), std::invalid_argument);
+  // Controls: the same terms, each within what is asked.
+  const std::vector<WeightedTerm> one = {{bounds_on_one.view(), {1, 0, 0}, 1}},
+                                  four(4, {pa.view(), {1, 0.5f, -0.5f}, 3});
+  EXPECT_NO_THROW(first_order_tree(one));
+  EXPECT_NO_THROW(first_order_tree(four));
 }
 
 }  // namespace

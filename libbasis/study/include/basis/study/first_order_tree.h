@@ -5,18 +5,23 @@
 // residuals are orthogonal to both planes, so the pair's error is at most area x residual_a x
 // residual_b (Cauchy-Schwarz), and where the functions are smooth the residuals shrink with the
 // square of the quadrant's side instead of with its side, as the deviations from the mean do.
-// Built from full-resolution grids, in floats (320 bytes a block of four quadrants) or, for the
-// side read from memory, in halves (128 bytes): it measures how many pairs planes save against
-// means in one layout, not what a packed form in files would cost.
+// Built from full-resolution grids, whose bound is then against those grids, or from packed
+// trees, whose bound then covers the data the trees were made from; in floats (320 bytes a block
+// of four quadrants) or, for the side read from memory, in halves (128 bytes): it measures how
+// many pairs planes save against means in one layout, not what a packed form in files would cost.
 #pragma once
 
 #include <array>
+#include <bit>
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "basis/core/convolution.h"
+#include "basis/core/folded_tree.h"
 #include "basis/core/grid.h"
+#include "basis/core/packed_tree.h"
 
 namespace basis {
 
@@ -31,13 +36,34 @@ struct alignas(64) FirstOrderBlock {
   // Sixteen lanes each, the last four zero, so that one vector holds them.
   std::array<float, 16> mean{}, slope_u{}, slope_v{}, residual{};
   std::array<std::int32_t, 4> child{-1, -1, -1, -1};
+  std::int32_t child_block(int q) const { return child[std::size_t(q)]; }
 };
 
-// A grid's first-order tree; block 0 holds the root's quadrants, the rest follow breadth first
-// (a level's blocks next to each other, as in packed trees).
+// What a tree built from packed trees adds to each block so that its bound covers their data
+// (lanes as in FirstOrderBlock; D is the data minus the packed trees' piecewise-constant
+// function, over the terms still live on the quadrant, those whose leaves lie inside it):
+//   residual: at least the RMS over the quadrant of the data minus the plane (the block's
+//           residual with D's added; the descent uses it in place of the block's);
+//   rms, rounding_rms: at least the RMS of D and of the leaves' values' rounding (which moves
+//           D's means over them off zero) over the quadrant;
+//   moment, rounding: for any plane p over the quadrant, |integral of p D| <= area x (moment x
+//           (|slope_u| + |slope_v|) + rounding x |mean|): the leaves' bounds times the plane's
+//           variation across them, and their rounding;
+//   charge: the bounds of the terms whose leaf is the quadrant while the tree goes on below it
+//           (a sum of terms): a descent that goes on adds area x charge x the other side's RMS,
+//           once, and treats those terms as their values below.
+struct alignas(64) FirstOrderData {
+  std::array<float, 16> residual{}, rms{}, rounding_rms{}, moment{}, rounding{}, charge{};
+};
+
+// A first-order tree; block 0 holds the root's quadrants, the rest follow breadth first (a
+// level's blocks next to each other, as in packed trees). data is empty for a tree built from a
+// grid, and holds one FirstOrderData per block for a tree built from packed trees.
 struct FirstOrderTree {
   int resolution = 0;
   std::vector<FirstOrderBlock> blocks;
+  std::vector<FirstOrderData> data;
+  int terms = 0;  // packed trees summed (0: built from a grid)
 };
 
 // Group 0 of the grid (1 or 3 channels; one channel is repeated in the three lanes) as a
@@ -46,15 +72,28 @@ struct FirstOrderTree {
 // two from 2, the channels 1 or 3, and every texel finite and within +-2^60.
 FirstOrderTree first_order_tree(const Grid& grid);
 
+// The weighted sum of packed trees' groups (the table entries a lookup at wo reads, weighted as
+// it weights them; folded_tree.h) as a first-order tree of the sum's piecewise-constant function,
+// whose convolutions' bounds also cover what the trees leave out of the data they were made
+// from, as their RMS bounds and values' rounding say. 1 to kMaxFoldedTerms terms of one
+// resolution, 1 or 3 channels, bounds for every weighted group and finite weights;
+// std::invalid_argument otherwise.
+FirstOrderTree first_order_tree(std::span<const WeightedTerm> terms);
+// One packed tree's group 0 so (a capture's radiance).
+FirstOrderTree first_order_tree(const PackedTreeView& tree);
+
 // The integral over [0,1]^2 of a * b, per channel, by a simultaneous descent of two first-order
 // trees of one resolution, and a certified bound on |value - the integral of the two source
 // grids' product|. A pair of quadrants on which both trees go on stops once, in every channel,
 // its bound is at most accuracy / 2 x (|its planes' product| + E), E the whole integral as the
 // root's planes estimate it (the stops' bounds then add up to at most about accuracy times the
 // value); accuracy 0 descends until one side is constant, which is exact up to rounding. The
-// bound is against the grids the trees were built from: what those grids leave out of the
-// functions they stand for is not in it. std::invalid_argument for different resolutions or a
-// negative or non-finite accuracy.
+// bound is against what the trees were built from: the grids, for trees built from grids (what
+// those leave out of the functions they stand for is not in it), or the packed trees' data,
+// for trees built from packed trees (their data terms added: their data residuals' product in
+// place of the residuals', the moments times the other side's absolute slopes and the
+// roundings times its absolute mean, and the charges).
+// std::invalid_argument for different resolutions or a negative or non-finite accuracy.
 struct FirstOrderConvolution {
   Convolution convolution;
   std::size_t pairs = 0;  // pairs of blocks descended (each four pairs of quadrants)
@@ -65,18 +104,28 @@ FirstOrderConvolution convolve_first_order(const FirstOrderTree& a, const FirstO
 // The same planes in 40 % of the memory, for the side read from memory at every lookup (a
 // capture): four quadrants' coefficients as halves of coefficient / scale (rounded to nearest)
 // and their residuals as halves rounded up, 128 bytes a block (two cache lines) against 320.
-// Group g (mean, slope_u, slope_v, residual) holds lanes 0..11 at halves[12 g]; four zero halves
-// close the block, so that each group loads as sixteen halves (the last four masked off).
+// Group g (mean, slope_u, slope_v, residual) holds lanes 0..11 at halves[12 g]; then four halves,
+// quadrant by quadrant, hold the largest data moment of its channels and four more the largest
+// data rounding (0 for a tree built from a grid), and the residuals include the data RMS. Each
+// group loads as sixteen halves (the last four masked off). A block's children follow one
+// another: the first one's index and a mask of the quadrants that have one.
 struct alignas(64) CompactFirstOrderBlock {
-  std::array<std::uint16_t, 52> halves{};
-  std::array<std::int32_t, 4> child{-1, -1, -1, -1};
+  std::array<std::uint16_t, 56> halves{};
+  std::int32_t first_child = -1;
+  std::uint8_t children = 0;  // bit q: quadrant q has a child block
+  std::int32_t child_block(int q) const {
+    if (!(children >> q & 1)) return -1;
+    return first_child + std::popcount(unsigned(children) & ((1u << q) - 1));
+  }
 };
 struct CompactFirstOrderTree {
   int resolution = 0;
-  float scale = 1;  // a power of two: every coefficient / scale is within the half range
+  float scale = 1;         // a power of two: every coefficient / scale is within the half range
+  bool with_data = false;  // built from a packed tree: the blocks hold data moments
   std::vector<CompactFirstOrderBlock> blocks;
 };
 // The tree's blocks in halves, in the same order, with one scale for the tree.
+// std::invalid_argument for a tree with charges (a sum of terms; the compact form is for one).
 CompactFirstOrderTree compact(const FirstOrderTree& tree);
 
 // convolve_first_order with b compact: the bound adds, per pair, the planes' product's change
@@ -85,8 +134,9 @@ FirstOrderConvolution convolve_first_order(const FirstOrderTree& a, const Compac
                                            double accuracy);
 
 // The tree with the slopes dropped: each quadrant its mean alone and, as residual, its RMS
-// deviation from the mean (rounded up), the zeroth-order bound of the packed trees. Convolved,
-// it is the same descent and accuracy rule with means instead of planes.
+// deviation from the mean (rounded up), the zeroth-order bound of the packed trees; its data,
+// if any, as it was. Convolved, it is the same descent and accuracy rule with means instead of
+// planes.
 FirstOrderTree without_slopes(const FirstOrderTree& tree);
 
 }  // namespace basis
