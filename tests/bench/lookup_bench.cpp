@@ -8,10 +8,14 @@
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <numbers>
+#include <span>
 
 #include "basis/brdf/table_lookup.h"
 #include "basis/core/dense.h"
+#include "basis/core/projection.h"
 #include "basis/lighting/shading.h"
 #include "basis/study/first_order_tree.h"
 #include "main_job_data.h"
@@ -91,18 +95,39 @@ BENCHMARK(BM_DenseLookups)
 // timing as the dense grids are: arguments table (0 Phong, 1 GGX), accuracy in thousandths,
 // form (0: the slopes dropped, means alone; 1: planes; 2: planes, the captures' trees compact;
 // 3 and 4: as 0 and 2, built from the packed trees, the table's entries around wo weighted as a
-// lookup weights them, so that the bound covers the data the files were made from) and hot (1:
-// capture 0 repeated). The lookups leave out the captures' sun (one BRDF evaluation
-// each, which the rows above include). Counters, computed once beside the timing: pairs of
-// blocks per lookup, and over every capture and channel whose value exceeds 1e-3 of the
-// largest, the error against the grids' product (dense_convolve_naive) and the certified bound,
-// median and p99, in % of the value (forms 3 and 4: a bound that covers the data, and so more
-// than the grids need).
+// lookup weights them, so that the bound covers the data the files were made from; 5 and 6: the
+// captures' trees cut from their texels as projection cuts them, at the captures' tolerance, on
+// planes (compact) or on means, the table's as in 1 and 0) and hot (1: capture 0 repeated). The
+// lookups leave out the captures' sun (one BRDF evaluation each, which the rows above include).
+// Counters, computed once beside the timing: pairs of blocks per lookup, and over every capture and
+// channel whose value exceeds 1e-3 of the largest, the error against the grids' product
+// (dense_convolve_naive) and the certified bound, median and p99, in % of the value (forms 3 and 4:
+// a bound that covers the data, and so more than the grids need).
 struct FirstOrderCaptures {
   std::vector<Grid> grids;
-  std::vector<FirstOrderTree> planes, means, certified_means;
-  std::vector<CompactFirstOrderTree> compact_planes, certified_compact_planes;
+  std::vector<FirstOrderTree> planes, means, certified_means, cut_means;
+  std::vector<CompactFirstOrderTree> compact_planes, certified_compact_planes, cut_planes;
+  double cut_planes_blocks = 0, cut_means_blocks = 0;  // per capture
 };
+
+// The texels' tolerances of a capture cut at `tolerance` of its mean, its lights' share
+// included, as capture2qt cuts it.
+std::array<double, 3> capture_tolerances(const Grid& texels,
+                                         std::span<const DirectionalLight> lights,
+                                         double tolerance) {
+  std::array<double, 3> mean{};
+  for (int c = 0; c < 3; ++c) {
+    for (int y = 0; y < texels.resolution; ++y)
+      for (int x = 0; x < texels.resolution; ++x)
+        mean[std::size_t(c)] += texels.at(0, c, x, y);
+    mean[std::size_t(c)] /= double(texels.resolution) * texels.resolution;
+    for (const DirectionalLight& light : lights)
+      mean[std::size_t(c)] += light.energy[c] * light.direction.z() / std::numbers::pi;
+  }
+  for (double& m : mean)
+    m = tolerance * std::abs(m);
+  return mean;
+}
 
 const FirstOrderCaptures& first_order_captures() {
   static FirstOrderCaptures captures;
@@ -116,6 +141,20 @@ const FirstOrderCaptures& first_order_captures() {
       const FirstOrderTree certified = first_order_tree(set.trees.tree(k));
       captures.certified_means.push_back(without_slopes(certified));
       captures.certified_compact_planes.push_back(compact(certified));
+    }
+    const CaptureSetView uncut = main_job_file("captures_texels").captures();
+    const double tolerance = ProjectionOptions{}.tolerance;
+    for (std::size_t k = 0; k < uncut.size(); ++k) {
+      const Grid texels = reconstruct(uncut.trees.tree(k));
+      const std::array<double, 3> tolerances =
+          capture_tolerances(texels, uncut.lights_of(k), tolerance);
+      const FirstOrderTree planes = first_order_tree(texels, tolerances, FirstOrderCut::planes);
+      captures.cut_planes.push_back(compact(planes));
+      captures.cut_means.push_back(
+          without_slopes(first_order_tree(texels, tolerances, FirstOrderCut::means)));
+      captures.cut_planes_blocks += double(planes.blocks.size()) / double(uncut.size());
+      captures.cut_means_blocks +=
+          double(captures.cut_means.back().blocks.size()) / double(uncut.size());
     }
   }
   return captures;
@@ -136,8 +175,9 @@ void BM_FirstOrderLookups(benchmark::State& state) {
       terms.push_back({entries.entry(tap.i, tap.j),
                        {float(tap.weights[0]), float(tap.weights[1]), float(tap.weights[2])},
                        tap.groups_read()});
-  const FirstOrderTree table_tree = form == 0   ? without_slopes(first_order_tree(table.grid))
-                                    : form < 3  ? first_order_tree(table.grid)
+  const FirstOrderTree table_tree = form == 0 || form == 6
+                                        ? without_slopes(first_order_tree(table.grid))
+                                    : form < 3 || form == 5 ? first_order_tree(table.grid)
                                     : form == 3 ? without_slopes(first_order_tree(terms))
                                                 : first_order_tree(terms);
   const std::size_t count = captures.grids.size();
@@ -151,8 +191,12 @@ void BM_FirstOrderLookups(benchmark::State& state) {
         return convolve_first_order(table_tree, captures.compact_planes[k], accuracy);
       case 3:
         return convolve_first_order(table_tree, captures.certified_means[k], accuracy);
-      default:
+      case 4:
         return convolve_first_order(table_tree, captures.certified_compact_planes[k], accuracy);
+      case 5:
+        return convolve_first_order(table_tree, captures.cut_planes[k], accuracy);
+      default:
+        return convolve_first_order(table_tree, captures.cut_means[k], accuracy);
     }
   };
   {
@@ -183,6 +227,8 @@ void BM_FirstOrderLookups(benchmark::State& state) {
     state.counters["error_p99_pct"] = percentile(errors, 0.99);
     state.counters["bound_median_pct"] = percentile(bounds, 0.5);
     state.counters["bound_p99_pct"] = percentile(bounds, 0.99);
+    if (form >= 5)
+      state.counters["blocks"] = form == 5 ? captures.cut_planes_blocks : captures.cut_means_blocks;
   }
   for (auto _ : state)
     for (std::size_t k = 0; k < count; ++k)
@@ -192,7 +238,7 @@ void BM_FirstOrderLookups(benchmark::State& state) {
 BENCHMARK(BM_FirstOrderLookups)
     ->Name("lookup/first_order")
     ->ArgNames({"ggx", "accuracy_permille", "form", "hot"})
-    ->ArgsProduct({{0, 1}, {0, 5, 10, 20}, {0, 1, 2, 3, 4}, {0}})
+    ->ArgsProduct({{0, 1}, {0, 5, 10, 20}, {0, 1, 2, 3, 4, 5, 6}, {0}})
     ->ArgsProduct({{0, 1}, {10}, {1, 2}, {1}})
     ->Unit(benchmark::kMillisecond);
 

@@ -2,8 +2,9 @@
 // folder (named with the format version): data/phong.json and data/ggx.json tabulated at the
 // defaults ("phong", "ggx") and as the first version tabulated them ("phong_first", "ggx_first":
 // 33 x 33 entries without derivatives over wo, cut relative to the mean), and 1000 captures on
-// data/scene.obj under the Poly Haven sunrise map (as scripts/demo.sh makes them). Loaded as the
-// tools load them, so that trees are read from a memory-mapped file, cold unless reused.
+// data/scene.obj under the Poly Haven sunrise map (as scripts/demo.sh makes them; "captures"),
+// and the same captures' texels, uncut ("captures_texels", tolerance 0). Loaded as the tools load
+// them, so that trees are read from a memory-mapped file, cold unless reused.
 #pragma once
 
 #include <filesystem>
@@ -30,7 +31,7 @@ inline const QtFile& main_job_file(const std::string& name) {
       (folder / (name + "_v" + std::to_string(kQtFormatVersion) + ".qt")).string();
   const std::string source = BASIS_SOURCE_DIR;
   if (!std::filesystem::exists(path)) {
-    if (name == "captures") {
+    if (name == "captures" || name == "captures_texels") {
       CaptureRecipe recipe;
       recipe.environment = "/usr/share/blender/datafiles/studiolights/world/sunrise.exr";
       recipe.scene = source + "/data/scene.obj";
@@ -42,6 +43,7 @@ inline const QtFile& main_job_file(const std::string& name) {
                         .seed = 1,
                         .ray_offset = 1e-4 * std::max(1.0, mesh.extent()),
                         .compact_lights = CaptureOptions::CompactLights::apart};
+      if (name == "captures_texels") recipe.projection.tolerance = 0;
       CaptureSetOptions options;
       options.capture = recipe.options;
       options.projection = recipe.projection;

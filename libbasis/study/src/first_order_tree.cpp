@@ -40,7 +40,8 @@ struct Level {
   std::vector<char> constant;
   std::vector<std::array<double, 3>> data_rms, data_rounding_rms, data_moment, data_rounding,
       leaf_bound;
-  int terms = 0;  // packed trees summed (0: built from a grid)
+  int terms = 0;                       // packed trees summed (0: built from a grid)
+  std::vector<char> within_tolerance;  // for a cut tree: the node is a leaf (empty: none)
 };
 
 // RMS over a quadrant of f - p, f a function and p a plane over it, given the RMS r of the
@@ -232,7 +233,9 @@ std::int32_t append_block(const std::vector<Level>& levels, int level, int x, in
   for (int q = 0; q < 4; ++q) {
     const int cx = 2 * x + (q & 1), cy = 2 * y + (q >> 1);
     const std::size_t j = std::size_t(cy) * below.side + cx;
-    if (level - 1 > 0 && !below.constant[j]) {
+    const bool leaf =
+        below.constant[j] || (!below.within_tolerance.empty() && below.within_tolerance[j]);
+    if (level - 1 > 0 && !leaf) {
       const std::int32_t child = append_block(levels, level - 1, cx, cy, blocks, data);
       blocks[index].child[q] = child;
     }
@@ -344,6 +347,41 @@ void add_term_data(std::vector<Level>& levels, const TermLeaves& leaves) {
   }
 }
 
+// Marks the nodes of every level above the texels on which, in every channel, the texels lie
+// within tolerances[c] of the node's plane (or mean).
+void mark_within_tolerance(std::vector<Level>& levels, const Texels& texels,
+                           const std::array<double, 3>& tolerances, FirstOrderCut cut) {
+  const int n = levels[0].side;
+  for (std::size_t k = 1; k < levels.size(); ++k) {
+    Level& level = levels[k];
+    const int side = level.side, size = 1 << k;
+    const double count = double(size) * size, slope_scale = std::sqrt(12.0) / (size * count);
+    level.within_tolerance.assign(std::size_t(side) * std::size_t(side), 1);
+    for (int y = 0; y < side; ++y)
+      for (int x = 0; x < side; ++x) {
+        const std::size_t i = std::size_t(y) * std::size_t(side) + std::size_t(x);
+        for (std::size_t c = 0; c < 3 && level.within_tolerance[i]; ++c) {
+          const Moments& m = level.moments[i][c];
+          const double mean = m.sum / count;
+          const double slope_u = cut == FirstOrderCut::planes ? m.sum_u * slope_scale : 0;
+          const double slope_v = cut == FirstOrderCut::planes ? m.sum_v * slope_scale : 0;
+          for (int ty = 0; ty < size && level.within_tolerance[i]; ++ty)
+            for (int tx = 0; tx < size; ++tx) {
+              // The texel's centre about the node's, as psi_u and psi_v measure it.
+              const double pu = std::sqrt(12.0) * (tx + 0.5 - size / 2.0) / size,
+                           pv = std::sqrt(12.0) * (ty + 0.5 - size / 2.0) / size;
+              const double f = texels[std::size_t(y * size + ty) * std::size_t(n) +
+                                      std::size_t(x * size + tx)][c];
+              if (std::abs(f - (mean + slope_u * pu + slope_v * pv)) > tolerances[c]) {
+                level.within_tolerance[i] = 0;
+                break;
+              }
+            }
+        }
+      }
+  }
+}
+
 // The first-order tree of a pyramid, breadth first, with its data if the pyramid has them.
 FirstOrderTree tree_of(const std::vector<Level>& levels) {
   const bool with_data = !levels[0].data_rms.empty();
@@ -376,7 +414,12 @@ FirstOrderTree tree_of(const std::vector<Level>& levels) {
 
 }  // namespace
 
-FirstOrderTree first_order_tree(const Grid& grid) {
+namespace {
+
+// Group 0 of a grid as texels (a grey grid's channel repeated): std::invalid_argument unless its
+// resolution is a power of two from 2, its channels 1 or 3, and every texel finite and within
+// +-2^60.
+Texels texels_of(const Grid& grid) {
   const int n = grid.resolution;
   if (n < 2 || (n & (n - 1)) != 0)
     throw std::invalid_argument("first-order tree of a grid of resolution " + std::to_string(n) +
@@ -391,7 +434,24 @@ FirstOrderTree first_order_tree(const Grid& grid) {
         texels[std::size_t(y) * std::size_t(n) + std::size_t(x)][std::size_t(c)] =
             grid.at(0, std::min(c, grid.channels - 1), x, y);
   check_texels(texels);
-  return tree_of(pyramid(n, texels));
+  return texels;
+}
+
+}  // namespace
+
+FirstOrderTree first_order_tree(const Grid& grid) {
+  return tree_of(pyramid(grid.resolution, texels_of(grid)));
+}
+
+FirstOrderTree first_order_tree(const Grid& grid, const std::array<double, 3>& tolerances,
+                                FirstOrderCut cut) {
+  for (const double t : tolerances)
+    if (!(t >= 0) || !std::isfinite(t))
+      throw std::invalid_argument("first-order tree cut at a tolerance of " + std::to_string(t));
+  const Texels texels = texels_of(grid);
+  std::vector<Level> levels = pyramid(grid.resolution, texels);
+  mark_within_tolerance(levels, texels, tolerances, cut);
+  return tree_of(levels);
 }
 
 FirstOrderTree first_order_tree(std::span<const WeightedTerm> terms) {

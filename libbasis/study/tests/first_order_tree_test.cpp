@@ -384,6 +384,45 @@ TEST(FirstOrderTree, SumsOfTermsHoldAgainstTheirData) {
   }
 }
 
+// Cut from the texels as projection cuts (a quadrant within the tolerance of its plane, or of
+// its mean, is a leaf), the trees hold against those texels, and planes cut smooth functions
+// into fewer blocks than means.
+TEST(FirstOrderTree, TreesCutFromTheTexelsHoldAgainstThem) {
+  for (const int n : {16, 64})
+    for (const double tolerance : {0.01, 0.1, 0.5})
+      for (const auto& [name_a, grid_a] : test_functions(n, 1, 91))
+        for (const auto& [name_b, grid_b] : test_functions(n, 3, 92)) {
+          const std::array<double, 3> exact = exact_product(grid_a, grid_b);
+          const std::string what = name_a + " x " + name_b + " at " + std::to_string(n) +
+                                   ", tolerance " + std::to_string(tolerance);
+          const std::array<double, 3> tolerances = {tolerance, tolerance, tolerance};
+          expect_forms_within_bounds(first_order_tree(grid_a),
+                                     first_order_tree(grid_b, tolerances, FirstOrderCut::planes),
+                                     exact, {0.0, 0.01, 0.1}, what + ", planes");
+          expect_forms_within_bounds(first_order_tree(grid_a, tolerances, FirstOrderCut::means),
+                                     first_order_tree(grid_b, tolerances, FirstOrderCut::means),
+                                     exact, {0.0, 0.01}, what + ", means");
+        }
+  // A linear function is one block cut on planes; cut on means, it needs many.
+  const int n = 64;
+  const Grid linear =
+      testing::sample_grid(n, 3, [](double u, double v, int c) { return 1 + 2 * u - v + 0.1 * c; });
+  const std::array<double, 3> tolerances = {0.05, 0.05, 0.05};
+  EXPECT_EQ(first_order_tree(linear, tolerances, FirstOrderCut::planes).blocks.size(), 1u);
+  EXPECT_GT(first_order_tree(linear, tolerances, FirstOrderCut::means).blocks.size(), 100u);
+  // A smooth lobe: planes cut it into fewer blocks than means (about half, 445 against 899).
+  const Grid smooth = lobe(128, 0.45, 0.55, 0.12, 0.05);
+  const std::array<double, 3> lobe_tolerances = {0.01, 0.01, 0.01};
+  EXPECT_LT(5 * first_order_tree(smooth, lobe_tolerances, FirstOrderCut::planes).blocks.size(),
+            3 * first_order_tree(smooth, lobe_tolerances, FirstOrderCut::means).blocks.size());
+  // Refused: a negative or non-finite tolerance.
+  EXPECT_THROW(first_order_tree(linear, {0.1, -0.1, 0.1}, FirstOrderCut::planes),
+               std::invalid_argument);
+  EXPECT_THROW(first_order_tree(linear, {0.1, 0.1, std::numeric_limits<double>::infinity()},
+                                FirstOrderCut::means),
+               std::invalid_argument);
+}
+
 TEST(FirstOrderTree, RefusesWhatItCannotConvolve) {
   const Grid a = lobe(16, 0.5, 0.5, 0.2, 0), b = lobe(32, 0.5, 0.5, 0.2, 0);
   const FirstOrderTree ta = first_order_tree(a), tb = first_order_tree(b);

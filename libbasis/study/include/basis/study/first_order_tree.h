@@ -72,6 +72,18 @@ struct FirstOrderTree {
 // two from 2, the channels 1 or 3, and every texel finite and within +-2^60.
 FirstOrderTree first_order_tree(const Grid& grid);
 
+// What a cut measures on a quadrant: the largest deviation of its texels from its plane, or
+// from its mean.
+enum class FirstOrderCut { planes, means };
+
+// The grid's first-order tree cut as projection cuts a packed tree from its texels: a quadrant
+// whose texels all lie within tolerances[c] of its plane (or mean), in every channel c, is a
+// leaf, holding its plane and its residual (computed from the texels, so that the bound covers
+// them). A tree cut on means convolves as means after without_slopes. std::invalid_argument for
+// what first_order_tree(grid) refuses and for negative or non-finite tolerances.
+FirstOrderTree first_order_tree(const Grid& grid, const std::array<double, 3>& tolerances,
+                                FirstOrderCut cut);
+
 // The weighted sum of packed trees' groups (the table entries a lookup at wo reads, weighted as
 // it weights them; folded_tree.h) as a first-order tree of the sum's piecewise-constant function,
 // whose convolutions' bounds also cover what the trees leave out of the data they were made
