@@ -10,13 +10,13 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <numbers>
-#include <span>
+#include <stdexcept>
 
 #include "basis/brdf/table_lookup.h"
 #include "basis/core/dense.h"
 #include "basis/core/projection.h"
 #include "basis/lighting/shading.h"
+#include "basis/study/first_order_lookups.h"
 #include "basis/study/first_order_tree.h"
 #include "main_job_data.h"
 
@@ -91,43 +91,37 @@ BENCHMARK(BM_DenseLookups)
     ->ArgsProduct({{0, 1}, {0, 1}})
     ->Unit(benchmark::kMillisecond);
 
-// First-order trees of the table's grid at wo and of every capture's grid, built once before
-// timing as the dense grids are: arguments table (0 Phong, 1 GGX), accuracy in thousandths,
-// form (0: the slopes dropped, means alone; 1: planes; 2: planes, the captures' trees compact;
-// 3 and 4: as 0 and 2, built from the packed trees, the table's entries around wo weighted as a
-// lookup weights them, so that the bound covers the data the files were made from; 5 and 6: the
-// captures' trees cut from their texels as projection cuts them, at the captures' tolerance, on
-// planes (compact) or on means, the table's as in 1 and 0) and hot (1: capture 0 repeated). The
-// lookups leave out the captures' sun (one BRDF evaluation each, which the rows above include).
-// Counters, computed once beside the timing: pairs of blocks per lookup, and over every capture and
-// channel whose value exceeds 1e-3 of the largest, the error against the grids' product
-// (dense_convolve_naive) and the certified bound, median and p99, in % of the value (forms 3 and 4:
-// a bound that covers the data, and so more than the grids need).
-struct FirstOrderCaptures {
-  std::vector<Grid> grids;
-  std::vector<FirstOrderTree> planes, means, certified_means, cut_means;
-  std::vector<CompactFirstOrderTree> compact_planes, certified_compact_planes, cut_planes;
-  double cut_planes_blocks = 0, cut_means_blocks = 0;  // per capture
+// The forms of first-order trees the rows below compare: built from the grids (the table's at
+// wo and the captures' reconstructions), the bound then against them; built from the files'
+// trees (the table's entries around wo weighted as a lookup weights them), the bound then
+// covering the data the files were made from; and the captures cut from their texels as
+// projection cuts them, at their tolerance, the bound covering those texels.
+enum class FirstOrderForm {
+  grid_means = 0,
+  grid_planes = 1,
+  grid_compact_planes = 2,  // the captures' trees compact
+  file_means = 3,
+  file_compact_planes = 4,
+  cut_compact_planes = 5,  // the table's as grid_planes
+  cut_means = 6,           // the table's as grid_means
 };
 
-// The texels' tolerances of a capture cut at `tolerance` of its mean, its lights' share
-// included, as capture2qt cuts it.
-std::array<double, 3> capture_tolerances(const Grid& texels,
-                                         std::span<const DirectionalLight> lights,
-                                         double tolerance) {
-  std::array<double, 3> mean{};
-  for (int c = 0; c < 3; ++c) {
-    for (int y = 0; y < texels.resolution; ++y)
-      for (int x = 0; x < texels.resolution; ++x)
-        mean[std::size_t(c)] += texels.at(0, c, x, y);
-    mean[std::size_t(c)] /= double(texels.resolution) * texels.resolution;
-    for (const DirectionalLight& light : lights)
-      mean[std::size_t(c)] += light.energy[c] * light.direction.z() / std::numbers::pi;
-  }
-  for (double& m : mean)
-    m = tolerance * std::abs(m);
-  return mean;
-}
+// First-order trees of the table at wo and of every capture, built once before timing as the
+// dense grids are: arguments table (0 Phong, 1 GGX), accuracy in thousandths, form
+// (FirstOrderForm) and hot (1: capture 0 repeated). The lookups leave out the captures' sun (one
+// BRDF evaluation each, which the rows above include). Counters, computed once beside the
+// timing: pairs of blocks per lookup; over every capture and channel whose value exceeds 1e-3 of
+// the largest, the error and the certified bound, median and p99, in % of the value; and over
+// every capture and channel, the values whose error exceeds their bound. The reference is the
+// table's grid against the captures' reconstructions for the forms built from the grids, and
+// against their texels (traced again uncut, as the file of tolerance 0 holds them) for the others.
+// Forms cut from the texels also count their blocks per capture.
+struct FirstOrderCaptures {
+  std::vector<Grid> grids, texels;
+  std::vector<FirstOrderTree> planes, means, file_means, cut_means;
+  std::vector<CompactFirstOrderTree> compact_planes, file_compact_planes, cut_planes;
+  double cut_planes_blocks = 0, cut_means_blocks = 0;  // per capture
+};
 
 const FirstOrderCaptures& first_order_captures() {
   static FirstOrderCaptures captures;
@@ -138,14 +132,14 @@ const FirstOrderCaptures& first_order_captures() {
       captures.planes.push_back(first_order_tree(captures.grids.back()));
       captures.means.push_back(without_slopes(captures.planes.back()));
       captures.compact_planes.push_back(compact(captures.planes.back()));
-      const FirstOrderTree certified = first_order_tree(set.trees.tree(k));
-      captures.certified_means.push_back(without_slopes(certified));
-      captures.certified_compact_planes.push_back(compact(certified));
+      const FirstOrderTree from_file = first_order_tree(set.trees.tree(k));
+      captures.file_means.push_back(without_slopes(from_file));
+      captures.file_compact_planes.push_back(compact(from_file));
     }
     const CaptureSetView uncut = main_job_file("captures_texels").captures();
     const double tolerance = ProjectionOptions{}.tolerance;
     for (std::size_t k = 0; k < uncut.size(); ++k) {
-      const Grid texels = reconstruct(uncut.trees.tree(k));
+      const Grid& texels = captures.texels.emplace_back(reconstruct(uncut.trees.tree(k)));
       const std::array<double, 3> tolerances =
           capture_tolerances(texels, uncut.lights_of(k), tolerance);
       const FirstOrderTree planes = first_order_tree(texels, tolerances, FirstOrderCut::planes);
@@ -161,9 +155,10 @@ const FirstOrderCaptures& first_order_captures() {
 }
 
 void BM_FirstOrderLookups(benchmark::State& state) {
+  using Form = FirstOrderForm;
   const Lookup lookup = main_job_lookup(int(state.range(0)));
   const double accuracy = double(state.range(1)) / 1000;
-  const int form = int(state.range(2));
+  const Form form = Form(state.range(2));
   const bool hot = state.range(3) != 0;
   const DenseLookup table = dense_lookup(main_job_file(lookup.table).brdf_table(), lookup.wo);
   const FirstOrderCaptures& captures = first_order_captures();
@@ -175,60 +170,46 @@ void BM_FirstOrderLookups(benchmark::State& state) {
       terms.push_back({entries.entry(tap.i, tap.j),
                        {float(tap.weights[0]), float(tap.weights[1]), float(tap.weights[2])},
                        tap.groups_read()});
-  const FirstOrderTree table_tree = form == 0 || form == 6
-                                        ? without_slopes(first_order_tree(table.grid))
-                                    : form < 3 || form == 5 ? first_order_tree(table.grid)
-                                    : form == 3 ? without_slopes(first_order_tree(terms))
-                                                : first_order_tree(terms);
+  const bool from_file = form == Form::file_means || form == Form::file_compact_planes;
+  const bool means =
+      form == Form::grid_means || form == Form::file_means || form == Form::cut_means;
+  const FirstOrderTree table_planes =
+      from_file ? first_order_tree(terms) : first_order_tree(table.grid);
+  const FirstOrderTree table_tree = means ? without_slopes(table_planes) : table_planes;
   const std::size_t count = captures.grids.size();
   const auto lookup_at = [&](std::size_t k) {
     switch (form) {
-      case 0:
+      case Form::grid_means:
         return convolve_first_order(table_tree, captures.means[k], accuracy);
-      case 1:
+      case Form::grid_planes:
         return convolve_first_order(table_tree, captures.planes[k], accuracy);
-      case 2:
+      case Form::grid_compact_planes:
         return convolve_first_order(table_tree, captures.compact_planes[k], accuracy);
-      case 3:
-        return convolve_first_order(table_tree, captures.certified_means[k], accuracy);
-      case 4:
-        return convolve_first_order(table_tree, captures.certified_compact_planes[k], accuracy);
-      case 5:
+      case Form::file_means:
+        return convolve_first_order(table_tree, captures.file_means[k], accuracy);
+      case Form::file_compact_planes:
+        return convolve_first_order(table_tree, captures.file_compact_planes[k], accuracy);
+      case Form::cut_compact_planes:
         return convolve_first_order(table_tree, captures.cut_planes[k], accuracy);
-      default:
+      case Form::cut_means:
         return convolve_first_order(table_tree, captures.cut_means[k], accuracy);
     }
+    throw std::logic_error("no such form");
   };
   {
-    std::vector<double> errors, bounds;
-    std::vector<Rgb> exact;
-    double largest = 0, pairs = 0;
-    for (const Grid& grid : captures.grids) {
-      exact.push_back(dense_convolve_naive(table.grid, grid));
-      for (const float e : exact.back())
-        largest = std::max(largest, double(e));
-    }
-    for (std::size_t k = 0; k < count; ++k) {
-      const FirstOrderConvolution r = lookup_at(k);
-      pairs += double(r.pairs);
-      for (int c = 0; c < 3; ++c)
-        if (exact[k][c] > 1e-3 * largest) {
-          errors.push_back(std::abs(double(r.convolution.value[c]) - exact[k][c]) / exact[k][c]);
-          bounds.push_back(double(r.convolution.bound[c]) / exact[k][c]);
-        }
-    }
-    std::sort(errors.begin(), errors.end());
-    std::sort(bounds.begin(), bounds.end());
-    const auto percentile = [](const std::vector<double>& v, double p) {
-      return v.empty() ? 0.0 : 100 * v[std::min(v.size() - 1, std::size_t(p * double(v.size())))];
-    };
-    state.counters["pairs"] = pairs / double(count);
-    state.counters["error_median_pct"] = percentile(errors, 0.5);
-    state.counters["error_p99_pct"] = percentile(errors, 0.99);
-    state.counters["bound_median_pct"] = percentile(bounds, 0.5);
-    state.counters["bound_p99_pct"] = percentile(bounds, 0.99);
-    if (form >= 5)
-      state.counters["blocks"] = form == 5 ? captures.cut_planes_blocks : captures.cut_means_blocks;
+    std::vector<Rgb> references;
+    const bool against_texels = int(form) >= int(Form::file_means);
+    for (const Grid& grid : against_texels ? captures.texels : captures.grids)
+      references.push_back(dense_convolve_naive(table.grid, grid));
+    const FirstOrderLookupCounts counts = count_first_order_lookups(references, lookup_at);
+    state.counters["pairs"] = counts.pairs;
+    state.counters["error_median_pct"] = counts.error_median;
+    state.counters["error_p99_pct"] = counts.error_p99;
+    state.counters["bound_median_pct"] = counts.bound_median;
+    state.counters["bound_p99_pct"] = counts.bound_p99;
+    state.counters["bound_failures"] = double(counts.bound_failures);
+    if (form == Form::cut_compact_planes) state.counters["blocks"] = captures.cut_planes_blocks;
+    if (form == Form::cut_means) state.counters["blocks"] = captures.cut_means_blocks;
   }
   for (auto _ : state)
     for (std::size_t k = 0; k < count; ++k)

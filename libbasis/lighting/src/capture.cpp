@@ -280,9 +280,9 @@ CaptureSet capture_set(const Environment& environment, const RayScene* scene,
       // A relative tolerance counts the lights kept apart in the capture's mean, as it would
       // count them splatted into their texels.
       ProjectionOptions projection = options.projection;
-      for (const DirectionalLight& light : lights[i])
-        for (int c = 0; c < 3; ++c)
-          projection.extra_mean[c] += light.energy[c] * light.direction.z() / std::numbers::pi;
+      const Color lights_mean = mean_of_lights(lights[i]);
+      for (std::size_t c = 0; c < 3; ++c)
+        projection.extra_mean[c] += lights_mean[c];
       try {
         projector.project(c.texels, projection, tree);
       } catch (const std::overflow_error& e) {

@@ -1,6 +1,7 @@
 #include "basis/study/first_order_tree.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -8,11 +9,8 @@
 #include <stdexcept>
 #include <string>
 
-#if defined(__AVX512F__)
-#include <immintrin.h>
-#endif
-
 #include "basis/core/half.h"
+#include "float_rounding.h"
 
 namespace basis {
 
@@ -32,14 +30,15 @@ using Texels = std::vector<std::array<double, 3>>;
 // node and channel what FirstOrderData is made of, each summed over the live terms: the RMS of
 // the data's difference D from them, the RMS of their leaves' rounding, the mean of their
 // leaves' bounds times the leaves' side over the node's, and the mean of their leaves' rounding;
-// and the bounds of the terms whose leaf the node is (charged only where the function goes on).
+// and the charge, the bounds of the terms whose leaf the node is (charged only where the function
+// goes on).
 struct Level {
   int side = 0;  // nodes per row
   std::vector<std::array<Moments, 3>> moments;
   std::vector<std::array<double, 3>> constant_value;
   std::vector<char> constant;
   std::vector<std::array<double, 3>> data_rms, data_rounding_rms, data_moment, data_rounding,
-      leaf_bound;
+      charge;
   int terms = 0;                       // packed trees summed (0: built from a grid)
   std::vector<char> within_tolerance;  // for a cut tree: the node is a leaf (empty: none)
 };
@@ -50,70 +49,27 @@ struct Level {
 // L, so that the integral of (part - p) D over L is (value_L - p's mean over L) times the
 // integral of D (which the leaf's rounding bounds) plus the integral of (p's mean - p) D (which
 // the plane's variation across L bounds): in all, at most area x (r x rounding_rms + g x
-// moment), g the RMS of p's slopes. With several trees the part is not constant on one tree's
-// leaves: r + e.
+// moment), g = sqrt(slope_u^2 + slope_v^2), the RMS of p minus its mean. With several trees the
+// part is not constant on one tree's leaves: r + e.
 double residual_with_data(double r, double e, double rounding_rms, double g, double moment,
                           int terms) {
   if (terms != 1) return r + e;
   return std::sqrt(r * r + e * e + 2 * (r * rounding_rms + g * moment));
 }
 
-// Sixteen float lanes and eight double lanes, one vector each where the machine has them.
-using Lanes = float __attribute__((vector_size(64)));
-using Wide = double __attribute__((vector_size(64)));
-
-using Ints = std::int32_t __attribute__((vector_size(64)));
-
-// Bit i in lane i, for the twelve lanes in use.
-constexpr Ints kLaneBits = {1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024, 2048, 0, 0, 0, 0};
-
-// For each set of quadrants (bit q for quadrant q), 1 in their lanes and 0 elsewhere.
-constexpr std::array<std::array<float, 16>, 16> quadrant_lanes() {
-  std::array<std::array<float, 16>, 16> lanes{};
-  for (unsigned set = 0; set < 16; ++set)
-    for (int i = 0; i < 12; ++i)
-      lanes[set][std::size_t(i)] = (set >> (i / 3)) & 1 ? 1.0f : 0.0f;
-  return lanes;
-}
-constexpr std::array<std::array<float, 16>, 16> kQuadrantLanes = quadrant_lanes();
-
-// Vectors pass by reference: where the machine lacks 64-byte registers, passing them by value
-// would take an ABI that differs from one build to another.
-unsigned horizontal_or(const Ints& lanes) {
-  Ints x = lanes;
-  x |= __builtin_shufflevector(x, x, 8, 9, 10, 11, 12, 13, 14, 15, 0, 1, 2, 3, 4, 5, 6, 7);
-  x |= __builtin_shufflevector(x, x, 4, 5, 6, 7, 0, 1, 2, 3, 4, 5, 6, 7, 0, 1, 2, 3);
-  x |= __builtin_shufflevector(x, x, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3, 0, 1);
-  x |= __builtin_shufflevector(x, x, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0);
-  return unsigned(x[0]);
-}
-
-void load(const std::array<float, 16>& values, Lanes& lanes) {
-  std::memcpy(&lanes, values.data(), sizeof lanes);
-}
-
-// |x| lane by lane, into `magnitude`.
-void absolute(const Lanes& x, Lanes& magnitude) {
-  using Bits = std::uint32_t __attribute__((vector_size(64)));
-  magnitude = Lanes(Bits(x) & 0x7fffffffu);
-}
-
-// Adds the sixteen lanes of x to two vectors of eight doubles.
-void add_widened(const Lanes& x, Wide& low, Wide& high) {
-  low += __builtin_convertvector(__builtin_shufflevector(x, x, 0, 1, 2, 3, 4, 5, 6, 7), Wide);
-  high +=
-      __builtin_convertvector(__builtin_shufflevector(x, x, 8, 9, 10, 11, 12, 13, 14, 15), Wide);
-}
-
 // The largest texel a tree takes: products of coefficients stay far from float overflow, and
-// what float underflow loses stays within kUnderflow (below).
+// what float underflow loses stays within the descent's allowance for it.
 constexpr float kLargestValue = 0x1p60f;
 
-// A double rounded up to a float.
-float round_up(double x) {
-  float f = float(x);
-  if (double(f) < x) f = std::nextafter(f, std::numeric_limits<float>::infinity());
-  return f;
+// A node's plane, from its moments over `texels` texels a side: mean and slopes as FirstOrderBlock
+// holds them.
+struct Plane {
+  double mean = 0, slope_u = 0, slope_v = 0;
+};
+Plane plane_of(const Moments& m, int texels) {
+  const double count = double(texels) * texels;
+  const double slope_scale = std::sqrt(12.0) / (texels * count);
+  return {m.sum / count, m.sum_u * slope_scale, m.sum_v * slope_scale};
 }
 
 // Throws unless every texel is finite and within +-kLargestValue.
@@ -179,7 +135,6 @@ std::vector<Level> pyramid(int n, const Texels& values) {
 void set_quadrant(FirstOrderBlock& block, FirstOrderData* data, int q, const Level& level,
                   std::size_t i, int texels) {
   const double count = double(texels) * texels;
-  const double slope_scale = std::sqrt(12.0) / (texels * count);
   for (int c = 0; c < 3; ++c) {
     const int lane = 3 * q + c;
     double residual = 0, slopes = 0;
@@ -187,32 +142,33 @@ void set_quadrant(FirstOrderBlock& block, FirstOrderData* data, int q, const Lev
       block.mean[lane] = float(level.constant_value[i][c]);  // exact: slopes and residual 0
     } else {
       const Moments& m = level.moments[i][c];
-      const double mean = m.sum / count, slope_u = m.sum_u * slope_scale,
-                   slope_v = m.sum_v * slope_scale, mean_square = m.sum_squares / count;
+      const Plane p = plane_of(m, texels);
+      const double mean_square = m.sum_squares / count;
       // The sums' rounding moves the difference by a few 2^-40 of the mean square at most.
       const double residual_square =
-          std::max(0.0, mean_square - mean * mean - slope_u * slope_u - slope_v * slope_v) +
+          std::max(0.0,
+                   mean_square - p.mean * p.mean - p.slope_u * p.slope_u - p.slope_v * p.slope_v) +
           0x1p-34 * mean_square;
       residual = std::sqrt(residual_square) * (1 + 0x1p-50);
-      slopes = std::sqrt(slope_u * slope_u + slope_v * slope_v);
-      block.mean[lane] = float(mean);
-      block.slope_u[lane] = float(slope_u);
-      block.slope_v[lane] = float(slope_v);
+      slopes = std::sqrt(p.slope_u * p.slope_u + p.slope_v * p.slope_v);
+      block.mean[lane] = float(p.mean);
+      block.slope_u[lane] = float(p.slope_u);
+      block.slope_v[lane] = float(p.slope_v);
       block.residual[lane] = round_up(residual);
     }
     if (!data) continue;
     // Sums of a few terms' products in doubles: 2^-40 covers their rounding.
-    const auto up = [](double x) { return round_up(x * (1 + 0x1p-40)); };
+    const auto round_up_sum = [](double x) { return round_up(x * (1 + 0x1p-40)); };
     const std::array<double, 3>& e = level.data_rms[i];
     const std::array<double, 3>& moment = level.data_moment[i];
     const std::array<double, 3>& rounding_rms = level.data_rounding_rms[i];
-    data->residual[lane] = up(residual_with_data(double(block.residual[lane]), e[c],
-                                                 rounding_rms[c], slopes, moment[c], level.terms));
-    data->rms[lane] = up(e[c]);
-    data->rounding_rms[lane] = up(rounding_rms[c]);
-    data->moment[lane] = up(moment[c] + std::sqrt(3.0) * level.data_rounding[i][c]);
-    data->rounding[lane] = up(level.data_rounding[i][c]);
-    if (!level.constant[i]) data->charge[lane] = up(level.leaf_bound[i][c]);
+    data->residual[lane] = round_up_sum(residual_with_data(
+        double(block.residual[lane]), e[c], rounding_rms[c], slopes, moment[c], level.terms));
+    data->rms[lane] = round_up_sum(e[c]);
+    data->rounding_rms[lane] = round_up_sum(rounding_rms[c]);
+    data->moment[lane] = round_up_sum(moment[c] + std::sqrt(3.0) * level.data_rounding[i][c]);
+    data->rounding[lane] = round_up_sum(level.data_rounding[i][c]);
+    if (!level.constant[i]) data->charge[lane] = round_up_sum(level.charge[i][c]);
   }
 }
 
@@ -255,6 +211,7 @@ struct TermLeaves {
 TermLeaves add_term(const WeightedTerm& term, Texels& values) {
   const PackedTreeView& tree = term.tree;
   const int n = tree.shape().resolution, channels = tree.shape().channels;
+  const double average_rounding = (2 * std::countr_zero(unsigned(n)) + 1) * 0x1p-24;
   TermLeaves leaves;
   leaves.side.assign(values.size(), 0);
   leaves.bound.assign(values.size(), {});
@@ -269,9 +226,16 @@ TermLeaves add_term(const WeightedTerm& term, Texels& values) {
         const double v = tree.value(node, g, channel, q);
         value[std::size_t(c)] += weight * v;
         bound[std::size_t(c)] += std::abs(weight) * double(tree.bound(node, g, channel, q));
-        // The half's rounding, and 2^-20 of the value for the average's own arithmetic.
+        if (!(bound[std::size_t(c)] <= kLargestValue))
+          throw std::invalid_argument("first-order tree of a term whose weighted bound is " +
+                                      std::to_string(bound[std::size_t(c)]) +
+                                      " (not finite or beyond 2^60)");
+        // The half's rounding, and the average's own arithmetic in floats: a few 2^-24 a
+        // level of the mean |texel|, which is at most |value| + its RMS deviation.
+        const double leaf_bound = tree.bound(node, g, channel, q);
         rounding[std::size_t(c)] +=
-            std::abs(weight) * (tree.rounding(node, g, channel, q) + 0x1p-20 * std::abs(v));
+            std::abs(weight) *
+            (tree.rounding(node, g, channel, q) + average_rounding * (std::abs(v) + leaf_bound));
       }
     }
     for (int ty = y * size; ty < (y + 1) * size; ++ty)
@@ -294,31 +258,39 @@ TermLeaves add_term(const WeightedTerm& term, Texels& values) {
 // leaf); and the mean and the RMS of their rounding. On a node that is one of its leaves, it
 // adds its bound to the node's charge, charged if the function goes on.
 void add_term_data(std::vector<Level>& levels, const TermLeaves& leaves) {
+  // Per node of the current level and channel, sums over its texels, in texel units.
+  struct Sums {
+    std::array<double, 3> squared_bound{}, bound_times_side{}, rounding{}, squared_rounding{};
+    void add(const Sums& other) {
+      for (std::size_t c = 0; c < 3; ++c) {
+        squared_bound[c] += other.squared_bound[c];
+        bound_times_side[c] += other.bound_times_side[c];
+        rounding[c] += other.rounding[c];
+        squared_rounding[c] += other.squared_rounding[c];
+      }
+    }
+  };
   const int n = levels[0].side;
-  // Per node of the current level: sums of squared bounds, of bounds times their leaf's side,
-  // of roundings and of squared roundings, three channels each.
-  std::vector<std::array<double, 12>> sums(std::size_t(n) * std::size_t(n));
+  std::vector<Sums> sums(std::size_t(n) * std::size_t(n));
   for (std::size_t i = 0; i < sums.size(); ++i)
     for (std::size_t c = 0; c < 3; ++c) {
       const double bound = leaves.bound[i][c], rounding = leaves.rounding[i][c];
-      sums[i][c] = bound * bound;
-      sums[i][3 + c] = bound * leaves.side[i];
-      sums[i][6 + c] = rounding;
-      sums[i][9 + c] = rounding * rounding;
+      sums[i].squared_bound[c] = bound * bound;
+      sums[i].bound_times_side[c] = bound * leaves.side[i];
+      sums[i].rounding[c] = rounding;
+      sums[i].squared_rounding[c] = rounding * rounding;
     }
   for (std::size_t k = 0; k < levels.size(); ++k) {
     Level& level = levels[k];
     const int side = level.side, texels = 1 << k;
     if (k > 0) {
-      std::vector<std::array<double, 12>> above(std::size_t(side) * std::size_t(side));
+      std::vector<Sums> above(std::size_t(side) * std::size_t(side));
       for (int y = 0; y < side; ++y)
         for (int x = 0; x < side; ++x)
-          for (int q = 0; q < 4; ++q) {
-            const std::size_t j = std::size_t(2 * y + (q >> 1)) * std::size_t(2 * side) +
-                                  std::size_t(2 * x + (q & 1));
-            for (std::size_t s = 0; s < 12; ++s)
-              above[std::size_t(y) * std::size_t(side) + std::size_t(x)][s] += sums[j][s];
-          }
+          for (int q = 0; q < 4; ++q)
+            above[std::size_t(y) * std::size_t(side) + std::size_t(x)].add(
+                sums[std::size_t(2 * y + (q >> 1)) * std::size_t(2 * side) +
+                     std::size_t(2 * x + (q & 1))]);
       sums = std::move(above);
     }
     if (level.data_rms.empty()) {
@@ -326,7 +298,7 @@ void add_term_data(std::vector<Level>& levels, const TermLeaves& leaves) {
       level.data_rounding_rms.assign(sums.size(), {});
       level.data_moment.assign(sums.size(), {});
       level.data_rounding.assign(sums.size(), {});
-      level.leaf_bound.assign(sums.size(), {});
+      level.charge.assign(sums.size(), {});
     }
     const double area = double(texels) * texels;
     for (int y = 0; y < side; ++y)
@@ -336,12 +308,13 @@ void add_term_data(std::vector<Level>& levels, const TermLeaves& leaves) {
                                   std::size_t(x) * std::size_t(texels);
         const int leaf_side = leaves.side[first];
         if (leaf_side > texels) continue;  // inside one of the term's leaves
+        const Sums& sum = sums[i];
         for (std::size_t c = 0; c < 3; ++c) {
-          level.data_rms[i][c] += std::sqrt(sums[i][c] / area);
-          level.data_moment[i][c] += sums[i][3 + c] / (area * texels);
-          level.data_rounding[i][c] += sums[i][6 + c] / area;
-          level.data_rounding_rms[i][c] += std::sqrt(sums[i][9 + c] / area);
-          if (leaf_side == texels) level.leaf_bound[i][c] += leaves.bound[first][c];
+          level.data_rms[i][c] += std::sqrt(sum.squared_bound[c] / area);
+          level.data_moment[i][c] += sum.bound_times_side[c] / (area * texels);
+          level.data_rounding[i][c] += sum.rounding[c] / area;
+          level.data_rounding_rms[i][c] += std::sqrt(sum.squared_rounding[c] / area);
+          if (leaf_side == texels) level.charge[i][c] += leaves.bound[first][c];
         }
       }
   }
@@ -355,16 +328,13 @@ void mark_within_tolerance(std::vector<Level>& levels, const Texels& texels,
   for (std::size_t k = 1; k < levels.size(); ++k) {
     Level& level = levels[k];
     const int side = level.side, size = 1 << k;
-    const double count = double(size) * size, slope_scale = std::sqrt(12.0) / (size * count);
     level.within_tolerance.assign(std::size_t(side) * std::size_t(side), 1);
     for (int y = 0; y < side; ++y)
       for (int x = 0; x < side; ++x) {
         const std::size_t i = std::size_t(y) * std::size_t(side) + std::size_t(x);
         for (std::size_t c = 0; c < 3 && level.within_tolerance[i]; ++c) {
-          const Moments& m = level.moments[i][c];
-          const double mean = m.sum / count;
-          const double slope_u = cut == FirstOrderCut::planes ? m.sum_u * slope_scale : 0;
-          const double slope_v = cut == FirstOrderCut::planes ? m.sum_v * slope_scale : 0;
+          Plane p = plane_of(level.moments[i][c], size);
+          if (cut == FirstOrderCut::means) p.slope_u = p.slope_v = 0;
           for (int ty = 0; ty < size && level.within_tolerance[i]; ++ty)
             for (int tx = 0; tx < size; ++tx) {
               // The texel's centre about the node's, as psi_u and psi_v measure it.
@@ -372,7 +342,7 @@ void mark_within_tolerance(std::vector<Level>& levels, const Texels& texels,
                            pv = std::sqrt(12.0) * (ty + 0.5 - size / 2.0) / size;
               const double f = texels[std::size_t(y * size + ty) * std::size_t(n) +
                                       std::size_t(x * size + tx)][c];
-              if (std::abs(f - (mean + slope_u * pu + slope_v * pv)) > tolerances[c]) {
+              if (std::abs(f - (p.mean + p.slope_u * pu + p.slope_v * pv)) > tolerances[c]) {
                 level.within_tolerance[i] = 0;
                 break;
               }
@@ -411,10 +381,6 @@ FirstOrderTree tree_of(const std::vector<Level>& levels) {
   }
   return tree;
 }
-
-}  // namespace
-
-namespace {
 
 // Group 0 of a grid as texels (a grey grid's channel repeated): std::invalid_argument unless its
 // resolution is a power of two from 2, its channels 1 or 3, and every texel finite and within
@@ -494,6 +460,7 @@ FirstOrderTree first_order_tree(const PackedTreeView& tree) {
 
 FirstOrderTree without_slopes(const FirstOrderTree& tree) {
   FirstOrderTree flat = tree;
+  flat.slopes = false;
   for (std::size_t k = 0; k < flat.blocks.size(); ++k) {
     FirstOrderBlock& block = flat.blocks[k];
     for (std::size_t i = 0; i < 12; ++i) {
@@ -514,80 +481,6 @@ FirstOrderTree without_slopes(const FirstOrderTree& tree) {
 
 namespace {
 
-// Block k of a tree as sixteen lanes a group: its coefficients; its residual, the data's for a
-// tree built from packed trees; what multiplies the other side's absolute slopes in a pair's
-// bound (the data moment) and its absolute mean (the data's rounding); how far the coefficients
-// may lie from the exact planes' beyond float rounding (compact blocks: their rounding to
-// halves); and the charges.
-struct BlockLanes {
-  Lanes mean, slope_u, slope_v, residual, moment, rounding, coefficient_rounding, charge;
-};
-
-void load_block(const FirstOrderTree& tree, std::size_t k, float, BlockLanes& lanes) {
-  const FirstOrderBlock& block = tree.blocks[k];
-  load(block.mean, lanes.mean);
-  load(block.slope_u, lanes.slope_u);
-  load(block.slope_v, lanes.slope_v);
-  load(block.residual, lanes.residual);
-  lanes.coefficient_rounding = Lanes{};
-  if (tree.data.empty()) {
-    lanes.moment = lanes.rounding = lanes.charge = Lanes{};
-    return;
-  }
-  const FirstOrderData& data = tree.data[k];
-  load(data.residual, lanes.residual);
-  load(data.moment, lanes.moment);
-  load(data.rounding, lanes.rounding);
-  load(data.charge, lanes.charge);
-}
-
-// Twelve halves from `halves` on, times scale, in lanes 0..11; lanes 12..15 zero.
-void load_halves(const std::uint16_t* halves, float scale, Lanes& lanes) {
-#if defined(__AVX512F__)
-  __m256i bits;
-  std::memcpy(&bits, halves, sizeof bits);  // sixteen halves, the last four masked off
-  const __m512 values = _mm512_maskz_cvtph_ps(0x0fff, bits);
-  std::memcpy(&lanes, &values, sizeof lanes);
-#else
-  lanes = Lanes{};
-  for (int i = 0; i < 12; ++i)
-    lanes[i] = half_to_float(halves[i]);
-#endif
-  lanes *= scale;
-}
-
-// Four halves, one per quadrant, times scale, each in its quadrant's three lanes.
-void load_quadrant_halves(const std::uint16_t* halves, float scale, Lanes& lanes) {
-  lanes = Lanes{};
-  for (int i = 0; i < 12; ++i)
-    lanes[i] = half_to_float(halves[i / 3]);
-  lanes *= scale;
-}
-
-void load_block(const CompactFirstOrderTree& tree, std::size_t k, float scale, BlockLanes& lanes) {
-  const CompactFirstOrderBlock& block = tree.blocks[k];
-  load_halves(&block.halves[0], scale, lanes.mean);
-  load_halves(&block.halves[12], scale, lanes.slope_u);
-  load_halves(&block.halves[24], scale, lanes.slope_v);
-  load_halves(&block.halves[36], scale, lanes.residual);
-  // Rounded to nearest halves from floats: within 2^-11 of the largest (and a float's 2^-24
-  // before it), or half a subnormal step of scale.
-  Lanes m, u, v;
-  absolute(lanes.mean, m);
-  absolute(lanes.slope_u, u);
-  absolute(lanes.slope_v, v);
-  const Lanes largest = m > u ? (m > v ? m : v) : (u > v ? u : v);
-  lanes.coefficient_rounding = 0x1.02p-11f * largest + 0x1p-24f * scale;
-  lanes.charge = Lanes{};
-  if (!tree.with_data) {
-    lanes.moment = lanes.rounding = Lanes{};
-    return;
-  }
-  // The data's moments and rounding, one per quadrant for its three channels.
-  load_quadrant_halves(&block.halves[48], scale, lanes.moment);
-  load_quadrant_halves(&block.halves[52], scale, lanes.rounding);
-}
-
 // The smallest half at least x (x >= 0, within the half range).
 std::uint16_t half_at_least(float x) {
   std::uint16_t h = float_to_half(x);
@@ -595,203 +488,7 @@ std::uint16_t half_at_least(float x) {
   return h;
 }
 
-float scale_of(const FirstOrderTree&) {
-  return 1;
-}
-float scale_of(const CompactFirstOrderTree& tree) {
-  return tree.scale;
-}
-
-// Per pair of quadrants, what the coefficients' rounding to floats (at most 2^-24 of each) and
-// the float arithmetic of the planes' product (a few 2^-24 more) may move it: within 2^-20 of the
-// product of their absolute sums. The pairs' bounds, computed in floats, are scaled up by 2^-20
-// for their own rounding at the end.
-constexpr float kRounding = 0x1p-20f;
-// What float underflow may lose per pair of quadrants, beyond that: subnormal coefficients and
-// products lose at most a few 2^-149 each, times coefficients of at most 2^60 (kLargestValue).
-constexpr float kUnderflow = 0x1p-80f;
-
-// One descent of a against b, a level at a time: each level's pairs are queued, and their blocks
-// fetched, while the level above is worked through, so that memory latency overlaps the
-// arithmetic.
-template <typename Tree>
-class Descent {
- public:
-  Descent(const FirstOrderTree& a, const Tree& b, double accuracy)
-      : a_(&a),
-        b_(&b),
-        scale_(scale_of(b)),
-        accuracy_(accuracy),
-        charges_(has_charges(a) || has_charges(b)) {
-    if (a.blocks.empty() || b.blocks.empty())
-      throw std::invalid_argument("first-order convolution of an empty tree");
-    if (a.resolution != b.resolution)
-      throw std::invalid_argument("first-order trees of resolutions " +
-                                  std::to_string(a.resolution) + " and " +
-                                  std::to_string(b.resolution) + " do not convolve");
-    if (!(accuracy >= 0) || !std::isfinite(accuracy))
-      throw std::invalid_argument("first-order convolution to an accuracy of " +
-                                  std::to_string(accuracy));
-    std::array<double, 3> estimate{};
-    BlockLanes la, lb;
-    load_block(a, 0, 1, la);
-    load_block(*b_, 0, scale_, lb);
-    const Lanes product = la.mean * lb.mean + la.slope_u * lb.slope_u + la.slope_v * lb.slope_v;
-    for (int i = 0; i < 12; ++i)
-      estimate[std::size_t(i % 3)] += 0.25 * double(product[i]);
-    half_accuracy_ = float(accuracy / 2);
-    for (int i = 0; i < 12; ++i)
-      budget_[i] = half_accuracy_ * float(std::abs(estimate[std::size_t(i % 3)]));
-    level_.reserve(64);
-    next_.reserve(64);
-    level_.push_back({0, 0});
-  }
-
-  bool done() const { return level_.empty(); }
-
-  // Descends one level.
-  void step() {
-    // The level's sums, scaled by its quadrants' area in doubles (no underflow) at its end.
-    Wide value_low{}, value_high{}, bound_low{}, bound_high{};
-    next_.resize(4 * level_.size());
-    std::size_t count = 0;
-    pairs_ += level_.size();
-    for (const Pair& pair : level_) {
-      const FirstOrderBlock& ba = a_->blocks[std::size_t(pair.a)];
-      const auto& bb = b_->blocks[std::size_t(pair.b)];
-      // In floats, twelve lanes at once: the rounding term covers the arithmetic's rounding.
-      BlockLanes la, lb;
-      load_block(*a_, std::size_t(pair.a), 1, la);
-      load_block(*b_, std::size_t(pair.b), scale_, lb);
-      const Lanes product = la.mean * lb.mean + la.slope_u * lb.slope_u + la.slope_v * lb.slope_v;
-      // Absolute slopes and means, raised by what their rounding may have lowered them.
-      Lanes slopes_a, slopes_b, mean_a, mean_b, magnitude;
-      absolute(la.slope_u, slopes_a);
-      absolute(la.slope_v, magnitude);
-      slopes_a += magnitude + 2.0f * la.coefficient_rounding;
-      absolute(lb.slope_u, slopes_b);
-      absolute(lb.slope_v, magnitude);
-      slopes_b += magnitude + 2.0f * lb.coefficient_rounding;
-      absolute(la.mean, mean_a);
-      absolute(lb.mean, mean_b);
-      mean_a += la.coefficient_rounding;
-      mean_b += lb.coefficient_rounding;
-      const Lanes sum_a = mean_a + slopes_a, sum_b = mean_b + slopes_b;
-      absolute(product, magnitude);
-      const Lanes pair_bound = la.residual * lb.residual + sum_a * lb.coefficient_rounding +
-                               sum_b * la.coefficient_rounding + slopes_a * lb.moment +
-                               slopes_b * la.moment + mean_a * lb.rounding + mean_b * la.rounding +
-                               kRounding * sum_a * sum_b + kUnderflow;
-      const Ints within_lanes = pair_bound <= half_accuracy_ * magnitude + budget_;
-      const unsigned within = horizontal_or(within_lanes & kLaneBits);
-      unsigned stops = 0;  // bit q: quadrant q stops
-      for (int q = 0; q < 4; ++q) {
-        const std::int32_t child_a = ba.child_block(q), child_b = bb.child_block(q);
-        const bool go_on = child_a >= 0 && child_b >= 0;
-        if (go_on && (accuracy_ == 0 || ((within >> (3 * q)) & 7) != 7)) {
-          next_[count++] = {child_a, child_b};
-          prefetch(a_->blocks[std::size_t(child_a)]);
-          prefetch(b_->blocks[std::size_t(child_b)]);
-          prefetch_data(*a_, child_a);
-          prefetch_data(*b_, child_b);
-        } else {
-          stops |= 1u << q;
-        }
-      }
-      Lanes stop;
-      load(kQuadrantLanes[stops], stop);
-      add_widened(stop * product, value_low, value_high);
-      Lanes bound = stop * pair_bound;
-      if (charges_) {
-        // Where the descent goes on, the terms whose leaf the quadrant is, against the other
-        // side's RMS over it (at most its absolute coefficients, its residual and what their
-        // rounding moved): each term's bound charged once, as the terms' own descents would.
-        Lanes going_on;
-        load(kQuadrantLanes[~stops & 15u], going_on);
-        bound += going_on * (la.charge * (sum_b + lb.residual) + lb.charge * (sum_a + la.residual));
-      }
-      add_widened(bound, bound_low, bound_high);
-    }
-    const double area = std::ldexp(1.0, -2 * depth_);  // of the level's quadrants
-    value_low_ += area * value_low;
-    value_high_ += area * value_high;
-    bound_low_ += area * bound_low;
-    bound_high_ += area * bound_high;
-    next_.resize(count);
-    level_.swap(next_);
-    ++depth_;
-  }
-
-  FirstOrderConvolution result() const {
-    std::array<double, 16> value, bound;
-    for (int i = 0; i < 8; ++i) {
-      value[std::size_t(i)] = value_low_[i];
-      value[std::size_t(8 + i)] = value_high_[i];
-      bound[std::size_t(i)] = bound_low_[i];
-      bound[std::size_t(8 + i)] = bound_high_[i];
-    }
-    Convolution out;
-    for (std::size_t c = 0; c < 3; ++c) {
-      const double v = value[c] + value[3 + c] + value[6 + c] + value[9 + c];
-      const double e = bound[c] + bound[3 + c] + bound[6 + c] + bound[9 + c];
-      out.value[c] = float(v);
-      // The pairs' bounds' rounding in floats, the sums' (far below the pairs' rounding terms)
-      // and the value's to float.
-      out.bound[c] = round_up(e * (1 + 0x1p-20) + 0x1p-24 * std::abs(v));
-    }
-    return {out, pairs_};
-  }
-
- private:
-  struct Pair {
-    std::int32_t a, b;
-  };
-  static void prefetch_data(const FirstOrderTree& tree, std::int32_t k) {
-    if (!tree.data.empty()) prefetch(tree.data[std::size_t(k)]);
-  }
-  static void prefetch_data(const CompactFirstOrderTree&, std::int32_t) {}
-  static bool has_charges(const FirstOrderTree& tree) { return !tree.data.empty(); }
-  static bool has_charges(const CompactFirstOrderTree&) { return false; }
-
-  template <typename Block>
-  static void prefetch(const Block& block) {
-    const char* bytes = reinterpret_cast<const char*>(&block);
-    for (std::size_t offset = 0; offset < sizeof block; offset += 64)
-      __builtin_prefetch(bytes + offset);
-  }
-
-  const FirstOrderTree* a_;
-  const Tree* b_;
-  float scale_;
-  double accuracy_;
-  bool charges_;
-  float half_accuracy_ = 0;
-  Lanes budget_{};  // accuracy / 2 x E, lane by lane, E the roots' planes' estimate
-  Wide value_low_{}, value_high_{}, bound_low_{}, bound_high_{};
-  std::vector<Pair> level_, next_;
-  int depth_ = 1;
-  std::size_t pairs_ = 0;
-};
-
-template <typename Tree>
-FirstOrderConvolution descend(const FirstOrderTree& a, const Tree& b, double accuracy) {
-  Descent<Tree> descent(a, b, accuracy);
-  while (!descent.done())
-    descent.step();
-  return descent.result();
-}
-
 }  // namespace
-
-FirstOrderConvolution convolve_first_order(const FirstOrderTree& a, const FirstOrderTree& b,
-                                           double accuracy) {
-  return descend(a, b, accuracy);
-}
-
-FirstOrderConvolution convolve_first_order(const FirstOrderTree& a, const CompactFirstOrderTree& b,
-                                           double accuracy) {
-  return descend(a, b, accuracy);
-}
 
 CompactFirstOrderTree compact(const FirstOrderTree& tree) {
   const bool with_data = !tree.data.empty();
@@ -822,6 +519,7 @@ CompactFirstOrderTree compact(const FirstOrderTree& tree) {
   CompactFirstOrderTree out;
   out.resolution = tree.resolution;
   out.with_data = with_data;
+  out.slopes = tree.slopes;
   // The largest coefficient below 2^15 in units of the scale, and so below the largest half
   // (65504) after rounding up; the scale a normal float, so that halves times it are exact.
   out.scale = largest > 0 ? std::ldexp(1.0f, std::max(std::ilogb(largest) - 14, -126)) : 1;

@@ -2,7 +2,9 @@
 // point over the cosine-weighted concentric map of the point's local frame.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <numbers>
 #include <span>
 #include <vector>
 
@@ -21,6 +23,17 @@ struct DirectionalLight {
   Vec3 direction;
   Color energy;
 };
+
+// What lights kept apart add to the mean of a capture's texels, as if splatted into them (a
+// texel holds radiance times cos(theta) / pi of the cosine-weighted map's measure): the sum of
+// energy x direction.z / pi, per channel.
+inline Color mean_of_lights(std::span<const DirectionalLight> lights) {
+  Color mean{0, 0, 0};
+  for (const DirectionalLight& light : lights)
+    for (std::size_t c = 0; c < 3; ++c)
+      mean[c] += light.energy[c] * light.direction.z() / std::numbers::pi;
+  return mean;
+}
 
 // Capture k: position, unit normal and unit tangent (bitangent = normal x tangent) in world
 // coordinates, tree k of `trees`, and lights [light_offsets[k], light_offsets[k + 1]) of

@@ -5,10 +5,12 @@
 // residuals are orthogonal to both planes, so the pair's error is at most area x residual_a x
 // residual_b (Cauchy-Schwarz), and where the functions are smooth the residuals shrink with the
 // square of the quadrant's side instead of with its side, as the deviations from the mean do.
-// Built from full-resolution grids, whose bound is then against those grids, or from packed
-// trees, whose bound then covers the data the trees were made from; in floats (320 bytes a block
-// of four quadrants) or, for the side read from memory, in halves (128 bytes): it measures how
-// many pairs planes save against means in one layout, not what a packed form in files would cost.
+// Built from full-resolution grids (refined wherever the function is not constant, or cut as
+// projection cuts, a quadrant within a tolerance of its plane a leaf), whose bound is then
+// against those grids; or from packed trees, whose bound then covers the data the trees were
+// made from. In floats (320 bytes a block of four quadrants) or, for the side read from memory,
+// in halves (128 bytes): it measures how many pairs planes save against means in one layout, not
+// what a packed form in files would cost.
 #pragma once
 
 #include <array>
@@ -31,13 +33,15 @@ namespace basis {
 //   mean = (1/a) integral f,  slope_u = (1/a) integral f psi_u,  slope_v likewise,
 //   residual >= the RMS over the quadrant of f - (mean + slope_u psi_u + slope_v psi_v),
 // the three coefficients rounded to nearest and the residual rounded up. child[q] is the block
-// of quadrant q's own quadrants, or -1 where the function is constant on it (or it is a texel).
+// of quadrant q's own quadrants, or -1 where the function is constant on it, it is a texel, or
+// (in a cut tree) it is a leaf.
 struct alignas(64) FirstOrderBlock {
   // Sixteen lanes each, the last four zero, so that one vector holds them.
   std::array<float, 16> mean{}, slope_u{}, slope_v{}, residual{};
   std::array<std::int32_t, 4> child{-1, -1, -1, -1};
   std::int32_t child_block(int q) const { return child[std::size_t(q)]; }
 };
+static_assert(sizeof(FirstOrderBlock) == 320);
 
 // What a tree built from packed trees adds to each block so that its bound covers their data
 // (lanes as in FirstOrderBlock; D is the data minus the packed trees' piecewise-constant
@@ -55,6 +59,7 @@ struct alignas(64) FirstOrderBlock {
 struct alignas(64) FirstOrderData {
   std::array<float, 16> residual{}, rms{}, rounding_rms{}, moment{}, rounding{}, charge{};
 };
+static_assert(sizeof(FirstOrderData) == 384);
 
 // A first-order tree; block 0 holds the root's quadrants, the rest follow breadth first (a
 // level's blocks next to each other, as in packed trees). data is empty for a tree built from a
@@ -63,7 +68,8 @@ struct FirstOrderTree {
   int resolution = 0;
   std::vector<FirstOrderBlock> blocks;
   std::vector<FirstOrderData> data;
-  int terms = 0;  // packed trees summed (0: built from a grid)
+  int terms = 0;       // packed trees summed (0: built from a grid)
+  bool slopes = true;  // false after without_slopes: means alone
 };
 
 // Group 0 of the grid (1 or 3 channels; one channel is repeated in the three lanes) as a
@@ -99,13 +105,15 @@ FirstOrderTree first_order_tree(const PackedTreeView& tree);
 // grids' product|. A pair of quadrants on which both trees go on stops once, in every channel,
 // its bound is at most accuracy / 2 x (|its planes' product| + E), E the whole integral as the
 // root's planes estimate it (the stops' bounds then add up to at most about accuracy times the
-// value); accuracy 0 descends until one side is constant, which is exact up to rounding. The
+// value); accuracy 0 descends until one side is constant or a leaf, which for uncut trees built
+// from grids is exact up to rounding. The
 // bound is against what the trees were built from: the grids, for trees built from grids (what
 // those leave out of the functions they stand for is not in it), or the packed trees' data,
 // for trees built from packed trees (their data terms added: their data residuals' product in
 // place of the residuals', the moments times the other side's absolute slopes and the
-// roundings times its absolute mean, and the charges).
-// std::invalid_argument for different resolutions or a negative or non-finite accuracy.
+// roundings times its absolute mean, and the charges). std::invalid_argument for different
+// resolutions, a negative or non-finite accuracy, or a tree of planes against one of means (the
+// product would leave out the slopes' cross term).
 struct FirstOrderConvolution {
   Convolution convolution;
   std::size_t pairs = 0;  // pairs of blocks descended (each four pairs of quadrants)
@@ -130,10 +138,12 @@ struct alignas(64) CompactFirstOrderBlock {
     return first_child + std::popcount(unsigned(children) & ((1u << q) - 1));
   }
 };
+static_assert(sizeof(CompactFirstOrderBlock) == 128);
 struct CompactFirstOrderTree {
   int resolution = 0;
   float scale = 1;         // a power of two: every coefficient / scale is within the half range
   bool with_data = false;  // built from a packed tree: the blocks hold data moments
+  bool slopes = true;      // false for a compact form of means alone
   std::vector<CompactFirstOrderBlock> blocks;
 };
 // The tree's blocks in halves, in the same order, with one scale for the tree.
