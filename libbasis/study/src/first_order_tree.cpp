@@ -224,15 +224,15 @@ TermLeaves add_term(const WeightedTerm& term, Texels& values) {
       for (int g = 0; g < term.groups; ++g) {
         const double weight = term.weights[std::size_t(g)];
         const double v = tree.value(node, g, channel, q);
+        const double leaf_bound = tree.bound(node, g, channel, q);
         value[std::size_t(c)] += weight * v;
-        bound[std::size_t(c)] += std::abs(weight) * double(tree.bound(node, g, channel, q));
+        bound[std::size_t(c)] += std::abs(weight) * leaf_bound;
         if (!(bound[std::size_t(c)] <= kLargestValue))
           throw std::invalid_argument("first-order tree of a term whose weighted bound is " +
                                       std::to_string(bound[std::size_t(c)]) +
                                       " (not finite or beyond 2^60)");
         // The half's rounding, and the average's own arithmetic in floats: a few 2^-24 a
         // level of the mean |texel|, which is at most |value| + its RMS deviation.
-        const double leaf_bound = tree.bound(node, g, channel, q);
         rounding[std::size_t(c)] +=
             std::abs(weight) *
             (tree.rounding(node, g, channel, q) + average_rounding * (std::abs(v) + leaf_bound));
