@@ -98,7 +98,8 @@ int main(int argc, char** argv) {
                  "output .qt file (default captures.qt, or the image's name with .qt); a .qt "
                  "file holds at most 2 GiB, capturing stops with an error beyond");
   app.add_option("--dump", dump,
-                 "also write every capture's texels as DIR/capture_K.exr (lights splatted in)");
+                 "also write every capture's texels as DIR/capture_KKKKK.exr (K zero-padded to "
+                 "five digits; lights splatted in)");
   app.add_flag("--splat-lights", splat,
                "put compact lights into the texels they fall in instead of keeping them apart");
   app.add_option("--threads", threads, "worker threads (default: all cores)")
