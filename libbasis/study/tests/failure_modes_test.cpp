@@ -43,7 +43,8 @@ TEST(FailureModes, SphericalHarmonicsGoNegativeOnASharpLobeQuadtreesNever) {
       "[  RINGING ] SH order 16 of Phong 1000: negative mass %.4f of positive %.4f, "
       "lowest value %.3f\n",
       negative, positive, most_negative);
-  EXPECT_LT(negative, -0.01 * positive);  // SH rings and goes negative
+  EXPECT_LT(negative, -0.25 * positive);  // SH rings and goes negative (measured -0.60)
+  EXPECT_LT(most_negative, -1.0);         // (measured -2.4)
   for (double tolerance : {0.0, 0.05, 0.5}) {
     const Grid back = reconstruct(project(lobe, {.tolerance = tolerance}).view());
     EXPECT_GE(*std::min_element(back.texels.begin(), back.texels.end()), 0.0f) << tolerance;
@@ -70,8 +71,8 @@ TEST(FailureModes, GrazingOutgoingDirections) {
   o.only_for = {grazing(80), grazing(88)};  // the entries these lookups read (PartialTable.*)
   for (const auto& [name, brdf, tolerance_80, tolerance_88] :
        std::vector<std::tuple<std::string, Brdf, double, double>>{
-           {"phong100", Phong{{0.5, 0.5, 0.5}, {0.4, 0.4, 0.4}, 100}, 0.01, 0.05},
-           {"ggx0.2", Ggx{{0.1, 0.1, 0.1}, {0.9, 0.9, 0.9}, 0.2}, 0.01, 0.05}}) {
+           {"phong100", Phong{{0.5, 0.5, 0.5}, {0.4, 0.4, 0.4}, 100}, 0.005, 0.005},
+           {"ggx0.2", Ggx{{0.1, 0.1, 0.1}, {0.9, 0.9, 0.9}, 0.2}, 0.005, 0.005}}) {
     const BrdfTable table = tabulate_brdf(brdf, o);
     for (const double degrees : {80.0, 88.0}) {
       const Vec3 wo = grazing(degrees);
@@ -89,6 +90,8 @@ TEST(FailureModes, GrazingOutgoingDirections) {
                   std::abs(sh - exact) / exact);
       EXPECT_NEAR(quadtree, exact, (degrees < 85 ? tolerance_80 : tolerance_88) * exact)
           << name << " " << degrees;
+      // SH 16 errs more than the table there (measured 0.16-0.33 % against 0.01-0.04 %).
+      EXPECT_GT(std::abs(sh - exact), std::abs(quadtree - exact)) << name << " " << degrees;
     }
   }
 }
@@ -120,9 +123,16 @@ TEST(FailureModes, DiagonalStepsAndASubTexelSunOfHdrValues) {
   const auto sh = sh_dot(sh_project(brdf, 16, true), 1, sh_project(light, 16, false), 3, 16);
   const auto haar = haar_dot(haar_project(brdf, 1024), haar_project(light, 1024));
   const Rgb dense32 = dense_convolve_naive(downsample(brdf, 32), downsample(light, 32));
-  std::printf("[  STEPS   ] SH 16 error %.4f, Haar 1024 %.4f, dense 32 %.4f\n",
-              std::abs(sh[1] / std::numbers::pi - exact[1]) / exact[1],
-              std::abs(haar[1] - exact[1]) / exact[1], std::abs(dense32[1] - exact[1]) / exact[1]);
+  const double sh_error = std::abs(sh[1] / std::numbers::pi - exact[1]) / exact[1],
+               haar_error = std::abs(haar[1] - exact[1]) / exact[1],
+               dense32_error = std::abs(dense32[1] - exact[1]) / exact[1];
+  std::printf("[  STEPS   ] SH 16 error %.4f, Haar 1024 %.4f, dense 32 %.4f\n", sh_error,
+              haar_error, dense32_error);
+  // SH 16 fails outright (measured 199 %); Haar with 1024 coefficients and a 32^2 grid do not
+  // (measured 0.00 % and 0.7 %).
+  EXPECT_GT(sh_error, 0.5);
+  EXPECT_LT(haar_error, 1e-3);
+  EXPECT_LT(dense32_error, 0.02);
 }
 
 }  // namespace
