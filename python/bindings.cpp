@@ -8,6 +8,7 @@
 #include <tbb/task_arena.h>
 
 #include <array>
+#include <cstring>
 #include <memory>
 #include <numbers>
 #include <optional>
@@ -59,6 +60,8 @@ struct Captures {
   CaptureSetView view;
   ProjectionOptions projection;
   std::optional<CaptureRecipe> recipe;  // when made here: written into the file's provenance
+  // When loaded: the file's provenance, parameters and sources, written back with the set.
+  std::optional<Provenance> loaded;
 };
 
 struct File {
@@ -74,6 +77,37 @@ Provenance python_provenance(const std::string& parameters = "{}", const std::st
   Provenance p{"basis (Python)", kVersion, parameters, {}};
   if (!source.empty()) p.sources.push_back(source);
   return p;
+}
+
+// What a capture set written from here records: its recipe and the files it read (map, scene)
+// when made here, the provenance it was loaded with otherwise.
+Provenance captures_provenance(const Captures& c) {
+  if (c.recipe) {
+    Provenance p = python_provenance(capture_parameters(*c.recipe));
+    for (const std::string& file : {c.recipe->environment, c.recipe->scene})
+      if (!file.empty()) p.sources.push_back(file);
+    return p;
+  }
+  if (c.loaded) return *c.loaded;
+  return python_provenance();
+}
+
+// Capture k of a set, k < 0 counting from the end as Python does; IndexError outside.
+std::size_t capture_index(const Captures& c, long long k) {
+  const long long n = static_cast<long long>(c.view.size());
+  if (k < -n || k >= n)
+    throw py::index_error("capture " + std::to_string(k) + " of a set of " + std::to_string(n));
+  return std::size_t(k < 0 ? k + n : k);
+}
+
+// A path argument: str, bytes or os.PathLike (os.fspath), without NUL characters (which would
+// cut it short).
+std::string path_of(const py::object& path, const std::string& what) {
+  const py::object p = py::module_::import("os").attr("fspath")(path);
+  const std::string s = p.cast<std::string>();
+  if (s.find('\0') != std::string::npos)
+    throw std::invalid_argument(what + " contains a NUL character");
+  return s;
 }
 
 Vec3 to_vec3(const std::array<double, 3>& a) {
@@ -183,6 +217,24 @@ std::optional<Brdf> table_brdf_of(const Table& table) {
   return std::nullopt;
 }
 
+// The threads of a call's arena: 0 for every core, else 1..1024 as the tools take them.
+int arena_threads(int threads) {
+  if (threads < 0 || threads > 1024)
+    throw std::invalid_argument("threads must be 0 (every core) or 1..1024, got " +
+                                std::to_string(threads));
+  return threads > 0 ? threads : tbb::task_arena::automatic;
+}
+
+// Raises `type` with `message`, whose bytes that are not UTF-8 (a file's own, quoted in a
+// parse error) are escaped rather than losing the whole message.
+void set_python_error(PyObject* type, const char* message) {
+  PyObject* text =
+      PyUnicode_DecodeUTF8(message, Py_ssize_t(std::strlen(message)), "backslashreplace");
+  if (!text) return;  // the decoding's own error stands
+  PyErr_SetObject(type, text);
+  Py_DECREF(text);
+}
+
 }  // namespace
 
 PYBIND11_MODULE(basis, m) {
@@ -192,17 +244,20 @@ PYBIND11_MODULE(basis, m) {
       "certified error bound.";
   m.attr("__version__") = kVersion;
   static py::exception<FileError> error(m, "Error", PyExc_RuntimeError);
+  error.attr("__doc__") =
+      "A file that cannot be read or written: missing, corrupt, of another kind, or an I/O "
+      "error. The message names the file and the problem in one line.";
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);
     } catch (const FileError& e) {
-      error(e.what());
+      set_python_error(error.ptr(), e.what());
     } catch (const std::invalid_argument& e) {
-      PyErr_SetString(PyExc_ValueError, e.what());
+      set_python_error(PyExc_ValueError, e.what());
     } catch (const std::overflow_error& e) {
-      PyErr_SetString(PyExc_OverflowError, e.what());
+      set_python_error(PyExc_OverflowError, e.what());
     } catch (const std::length_error& e) {
-      PyErr_SetString(PyExc_MemoryError, e.what());
+      set_python_error(PyExc_MemoryError, e.what());
     }
   });
 
@@ -211,22 +266,39 @@ PYBIND11_MODULE(basis, m) {
       "A packed quadtree over the unit square (the cosine-weighted concentric map): "
       "quadrant values scaled per tree (half floats, or shared-exponent words in RGB captures), "
       "8-bit certified bounds.")
-      .def_property_readonly("resolution", [](const Tree& t) { return t.view.shape().resolution; })
-      .def_property_readonly("channels", [](const Tree& t) { return t.view.shape().channels; })
-      .def_property_readonly("groups", [](const Tree& t) { return t.view.shape().groups; })
-      .def_property_readonly("bounded_groups",
-                             [](const Tree& t) { return t.view.shape().bounded_groups; })
+      .def_property_readonly(
+          "resolution", [](const Tree& t) { return t.view.shape().resolution; },
+          "N: the tree covers an N x N grid of texels of the cosine-weighted concentric map.")
+      .def_property_readonly(
+          "channels", [](const Tree& t) { return t.view.shape().channels; }, "1 (grey) or 3 (RGB).")
+      .def_property_readonly(
+          "groups", [](const Tree& t) { return t.view.shape().groups; },
+          "Channel groups: 1, or 3 for a table entry with its derivatives over wo (f, h df/ds, h "
+          "df/dt).")
+      .def_property_readonly(
+          "bounded_groups", [](const Tree& t) { return t.view.shape().bounded_groups; },
+          "Groups 0 .. bounded_groups - 1 carry certified bounds.")
       .def_property_readonly(
           "bounds",
-          [](const Tree& t) { return t.view.shape().bounds == BoundKind::l2 ? "l2" : "linf"; })
-      .def_property_readonly("node_count", [](const Tree& t) { return t.view.node_count(); })
-      .def_property_readonly("words_per_node",
-                             [](const Tree& t) { return t.view.shape().words_per_node(); })
-      .def_property_readonly("value_scale",
-                             [](const Tree& t) { return t.view.scales().value_scale; })
-      .def_property_readonly("bound_scale",
-                             [](const Tree& t) { return t.view.scales().bound_scale; })
-      .def_property_readonly("texel_start", [](const Tree& t) { return t.view.texel_start(); })
+          [](const Tree& t) { return t.view.shape().bounds == BoundKind::l2 ? "l2" : "linf"; },
+          "What the bounds bound: 'l2', each quadrant's RMS deviation from its value, or 'linf', "
+          "its largest.")
+      .def_property_readonly(
+          "node_count", [](const Tree& t) { return t.view.node_count(); },
+          "Nodes, texel nodes included.")
+      .def_property_readonly(
+          "words_per_node", [](const Tree& t) { return t.view.shape().words_per_node(); },
+          "32-bit words of a full node: link, values, bound codes.")
+      .def_property_readonly(
+          "value_scale", [](const Tree& t) { return t.view.scales().value_scale; },
+          "A power of two: a stored value times it is the quadrant's value.")
+      .def_property_readonly(
+          "bound_scale", [](const Tree& t) { return t.view.scales().bound_scale; },
+          "A bound code's value times it is the quadrant's bound.")
+      .def_property_readonly(
+          "texel_start", [](const Tree& t) { return t.view.texel_start(); },
+          "Nodes from here on are texel nodes, values alone (trees with exact texels); node_count "
+          "otherwise.")
       .def_property_readonly(
           "shared_values", [](const Tree& t) { return t.view.shape().shared_values(); },
           "Whether the nodes hold their values as shared-exponent words, one per quadrant (RGB "
@@ -307,41 +379,66 @@ PYBIND11_MODULE(basis, m) {
       "value, faster, and a bound of inf (not with an accuracy target).");
 
   py::class_<Table>(m, "Table", "A BRDF table: quadtrees over wi at a parabolic grid of wo.")
-      .def_property_readonly("wo_resolution", [](const Table& t) { return t.view.wo_resolution; })
-      .def_property_readonly("has_tilt", [](const Table& t) { return t.view.has_tilt(); })
-      .def_property_readonly("has_wo_derivatives",
-                             [](const Table& t) { return t.view.has_wo_derivatives(); })
-      .def_property_readonly("model", [](const Table& t) { return t.model; })
-      .def_property_readonly("spec", [](const Table& t) { return t.spec; })
+      .def_property_readonly(
+          "wo_resolution", [](const Table& t) { return t.view.wo_resolution; },
+          "M: the table has M x M entries over the parabolic map of wo.")
+      .def_property_readonly(
+          "has_tilt", [](const Table& t) { return t.view.has_tilt(); },
+          "Whether the entries carry tilt derivatives (for reflect_tilted's compensation).")
+      .def_property_readonly(
+          "has_wo_derivatives", [](const Table& t) { return t.view.has_wo_derivatives(); },
+          "Whether the entries hold their derivatives over wo (groups 1 and 2), for Hermite "
+          "lookups between entries.")
+      .def_property_readonly(
+          "model", [](const Table& t) { return t.model; },
+          "The BRDF model's name (phong, ggx, ...).")
+      .def_property_readonly(
+          "spec", [](const Table& t) { return t.spec; }, "The JSON spec the table was made from.")
       .def(
           "entry",
           [](const Table& t, int i, int j) {
             const int m = t.view.wo_resolution;
             if (i < 0 || j < 0 || i >= m || j >= m)
-              throw std::invalid_argument("entry out of range");
+              throw py::index_error("entry (" + std::to_string(i) + ", " + std::to_string(j) +
+                                    ") outside the " + std::to_string(m) + " x " +
+                                    std::to_string(m) + " table");
             return Tree{t.owner, t.view.entry(i, j)};
           },
-          py::arg("i"), py::arg("j"));
+          py::arg("i"), py::arg("j"),
+          "The entry at wo's parabolic coordinates s = -1 + 2 i / (M - 1), t = -1 + 2 j / (M - 1) "
+          "(wo = (2s, 2t, 1 - s^2 - t^2) / (1 + s^2 + t^2); i along x, j along y).");
 
   py::class_<Captures>(m, "Captures", "Hemisphere captures at points: frames, trees, lights.")
-      .def("__len__", [](const Captures& c) { return c.view.size(); })
-      .def_property_readonly("positions",
-                             [](const Captures& c) { return vectors(c.view.positions); })
-      .def_property_readonly("normals", [](const Captures& c) { return vectors(c.view.normals); })
-      .def_property_readonly("tangents", [](const Captures& c) { return vectors(c.view.tangents); })
+      .def(
+          "__len__", [](const Captures& c) { return c.view.size(); }, "The number of captures.")
+      .def_property_readonly(
+          "positions", [](const Captures& c) { return vectors(c.view.positions); },
+          "The points, N x 3 (a copy).")
+      .def_property_readonly(
+          "normals", [](const Captures& c) { return vectors(c.view.normals); },
+          "The normals, N x 3 (a copy): each capture's frame has z along its normal.")
+      .def_property_readonly(
+          "tangents", [](const Captures& c) { return vectors(c.view.tangents); },
+          "The tangents, N x 3 (a copy): each capture's frame has x along its tangent.")
       .def(
           "tree",
-          [](const Captures& c, std::size_t k) {
-            if (k >= c.view.size()) throw std::invalid_argument("capture index out of range");
-            return Tree{c.owner, c.view.trees.tree(k)};
+          [](const Captures& c, long long k) {
+            return Tree{c.owner, c.view.trees.tree(capture_index(c, k))};
           },
-          py::arg("k"))
+          py::arg("k"),
+          "Capture k's radiance tree (negative k counts from the end; IndexError outside).")
+      .def(
+          "__getitem__",
+          [](const Captures& c, long long k) {
+            return Tree{c.owner, c.view.trees.tree(capture_index(c, k))};
+          },
+          py::arg("k"), "Capture k's radiance tree, as tree(k).")
       .def(
           "lights",
-          [](const Captures& c, std::size_t k) {
-            if (k >= c.view.size()) throw std::invalid_argument("capture index out of range");
+          [](const Captures& c, long long k) {
+            const std::size_t index = capture_index(c, k);
             py::list out;
-            for (const DirectionalLight& l : c.view.lights_of(k))
+            for (const DirectionalLight& l : c.view.lights_of(index))
               out.append(
                   py::make_tuple(py::make_tuple(l.direction.x(), l.direction.y(), l.direction.z()),
                                  py::make_tuple(l.energy[0], l.energy[1], l.energy[2])));
@@ -350,46 +447,67 @@ PYBIND11_MODULE(basis, m) {
           py::arg("k"), "The lights capture k keeps apart: (direction in its frame, energy).");
 
   py::class_<File>(m, "File", "A loaded and verified .qt file (memory-mapped; trees in place).")
-      .def_property_readonly("kind", [](const File& f) { return to_string(f.file->kind()); })
-      .def_property_readonly("format_version",
-                             [](const File& f) { return f.file->format_version(); })
-      .def_property_readonly("zero_copy", [](const File& f) { return f.file->zero_copy(); })
-      .def_property_readonly("provenance",
-                             [](const File& f) {
-                               const Provenance p = f.file->provenance();
-                               py::dict d;
-                               d["tool"] = p.tool;
-                               d["tool_version"] = p.tool_version;
-                               d["parameters"] = p.parameters;
-                               d["sources"] = p.sources;
-                               return d;
-                             })
-      .def("tree",
-           [](const File& f) {
-             return Tree{f.file, f.file->tree()};
-           })
-      .def("table",
-           [](const File& f) {
-             // Written back, it names the same spec file and options, so that a measured
-             // BRDF's data files are still found from it.
-             const Provenance p = f.file->provenance();
-             return Table{f.file,
-                          f.file->brdf_table(),
-                          f.file->brdf_model(),
-                          f.file->brdf_spec(),
-                          f.file->projection(),
-                          f.file,
-                          std::nullopt,
-                          p.sources.empty() ? std::string() : p.sources.front(),
-                          p.parameters.empty() ? std::string("{}") : p.parameters};
-           })
-      .def("captures", [](const File& f) {
-        return Captures{f.file, f.file->captures(), f.file->projection(), std::nullopt};
-      });
+      .def_property_readonly(
+          "kind", [](const File& f) { return to_string(f.file->kind()); },
+          "'tree', 'brdf-table' or 'capture-set'.")
+      .def_property_readonly(
+          "format_version", [](const File& f) { return f.file->format_version(); },
+          "The file's format version (older versions are read as well).")
+      .def_property_readonly(
+          "zero_copy", [](const File& f) { return f.file->zero_copy(); },
+          "Whether the trees are read in place from the mapped file (False: restored into memory, "
+          "as capture sets of format 7 are).")
+      .def_property_readonly(
+          "provenance",
+          [](const File& f) {
+            const Provenance p = f.file->provenance();
+            py::dict d;
+            d["tool"] = p.tool;
+            d["tool_version"] = p.tool_version;
+            d["parameters"] = p.parameters;
+            d["sources"] = p.sources;
+            return d;
+          },
+          "What made the file: tool, tool_version, parameters (JSON text) and sources (files).")
+      .def(
+          "tree",
+          [](const File& f) {
+            if (f.file->kind() != QtKind::tree)
+              throw FileError(f.file->name() + ": holds a " + to_string(f.file->kind()) +
+                              ", not a single tree (table().entry(i, j) or captures().tree(k))");
+            return Tree{f.file, f.file->tree()};
+          },
+          "The file's tree (a file of one tree).")
+      .def(
+          "table",
+          [](const File& f) {
+            // Written back, it names the same spec file and options, so that a measured
+            // BRDF's data files are still found from it.
+            const Provenance p = f.file->provenance();
+            return Table{f.file,
+                         f.file->brdf_table(),
+                         f.file->brdf_model(),
+                         f.file->brdf_spec(),
+                         f.file->projection(),
+                         f.file,
+                         std::nullopt,
+                         p.sources.empty() ? std::string() : p.sources.front(),
+                         p.parameters.empty() ? std::string("{}") : p.parameters};
+          },
+          "The file's BRDF table (basis.Error for a file of another kind).")
+      .def(
+          "captures",
+          [](const File& f) {
+            return Captures{f.file, f.file->captures(), f.file->projection(), std::nullopt,
+                            f.file->provenance()};
+          },
+          "The file's capture set (basis.Error for a file of another kind); written back, it "
+          "keeps the file's provenance.");
 
   m.def(
       "load",
-      [](const std::string& path) {
+      [](const py::object& path_argument) {
+        const std::string path = path_of(path_argument, "path");
         py::gil_scoped_release release;
         return File{std::make_shared<const QtFile>(QtFile::load(path))};
       },
@@ -399,18 +517,24 @@ PYBIND11_MODULE(basis, m) {
   py::class_<PyBrdf>(m, "Brdf", "An analytic or measured BRDF, from a JSON spec (brdf2qt's).")
       .def_static(
           "from_file",
-          [](const std::string& path) {
+          [](const py::object& path_argument) {
+            const std::string path = path_of(path_argument, "path");
             return PyBrdf{read_brdf_spec(path), path};
           },
-          py::arg("path"))
+          py::arg("path"),
+          "A BRDF from a JSON spec file (brdf2qt's; README). basis.Error names the file and the "
+          "problem.")
       .def_static(
           "from_json",
           [](const std::string& text) {
             return PyBrdf{parse_brdf_spec(text, "spec", "."), ""};
           },
-          py::arg("text"))
-      .def_property_readonly("model", [](const PyBrdf& b) { return b.spec.model; })
-      .def_property_readonly("channels", [](const PyBrdf& b) { return channel_count(b.spec.brdf); })
+          py::arg("text"), "A BRDF from JSON spec text.")
+      .def_property_readonly(
+          "model", [](const PyBrdf& b) { return b.spec.model; }, "The model's name.")
+      .def_property_readonly(
+          "channels", [](const PyBrdf& b) { return channel_count(b.spec.brdf); },
+          "1 when every colour of the spec is grey, else 3.")
       .def(
           "evaluate",
           [](const PyBrdf& b,
@@ -435,9 +559,14 @@ PYBIND11_MODULE(basis, m) {
           },
           py::arg("wi"), py::arg("wo"),
           "f(wi, wo) per channel for N x 3 arrays of directions in the local frame (z the normal).")
-      .def_property_readonly("lobe_width", [](const PyBrdf& b) { return lobe_width(b.spec.brdf); })
-      .def_property_readonly("default_wo_resolution",
-                             [](const PyBrdf& b) { return default_wo_resolution(b.spec.brdf); });
+      .def_property_readonly(
+          "lobe_width", [](const PyBrdf& b) { return lobe_width(b.spec.brdf); },
+          "The lobe's angular width at normal incidence, in radians (its half width at half "
+          "maximum over 1.1774); infinity without a lobe.")
+      .def_property_readonly(
+          "default_wo_resolution",
+          [](const PyBrdf& b) { return default_wo_resolution(b.spec.brdf); },
+          "The outgoing resolution M tabulate() takes by default for this BRDF (33 to 129).");
 
   m.def(
       "tabulate",
@@ -456,7 +585,7 @@ PYBIND11_MODULE(basis, m) {
         options.tilt_derivatives = tilt;
         options.wo_derivatives = wo_derivatives;
         py::gil_scoped_release release;
-        tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
+        tbb::task_arena arena(arena_threads(threads));
         BrdfTable table = arena.execute([&] { return tabulate_brdf(b.spec.brdf, options); });
         table.spec = b.spec.text;
         Table out = own(std::move(table), options.projection);
@@ -547,14 +676,19 @@ PYBIND11_MODULE(basis, m) {
       "capture",
       [](const py::array_t<double, py::array::c_style | py::array::forcecast>& points,
          const py::array_t<double, py::array::c_style | py::array::forcecast>& normals,
-         const std::string& env, std::optional<std::array<double, 3>> constant,
-         const std::string& scene, int res, int spp, double tolerance, std::uint64_t seed,
+         const py::object& env_argument, std::optional<std::array<double, 3>> constant,
+         const py::object& scene_argument, int res, int spp, double tolerance, std::uint64_t seed,
          bool splat_lights, int threads) {
+        const std::string env = path_of(env_argument, "env"),
+                          scene = path_of(scene_argument, "scene");
         const std::vector<Vec3> p = to_vectors(points, "points"),
                                 n = to_vectors(normals, "normals");
         if (p.size() != n.size()) throw std::invalid_argument("as many normals as points");
         if (env.empty() == !constant)
           throw std::invalid_argument("give the light: env=PATH or constant=(r, g, b)");
+        if (spp < 1 || spp > 4096)
+          throw std::invalid_argument("spp must be a square number from 1 to 4096, got " +
+                                      std::to_string(spp));
         const int strata = int(std::lround(std::sqrt(spp)));
         if (strata * strata != spp) throw std::invalid_argument("spp must be a square number");
         if (!is_valid_resolution(res))
@@ -586,10 +720,10 @@ PYBIND11_MODULE(basis, m) {
         CaptureSetOptions options;
         options.capture = recipe.options;
         options.projection = recipe.projection;
-        tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
+        tbb::task_arena arena(arena_threads(threads));
         auto set = std::make_shared<const CaptureSet>(arena.execute(
             [&] { return capture_set(environment, traced.get(), surface, options); }));
-        return Captures{set, set->view(), recipe.projection, recipe};
+        return Captures{set, set->view(), recipe.projection, recipe, std::nullopt};
       },
       py::arg("points"), py::arg("normals"), py::arg("env") = "", py::arg("constant") = py::none(),
       py::arg("scene") = "", py::arg("res") = 128, py::arg("spp") = 4, py::arg("tolerance") = 0.05,
@@ -599,7 +733,8 @@ PYBIND11_MODULE(basis, m) {
 
   m.def(
       "write",
-      [](const std::string& path, const py::object& what) {
+      [](const py::object& path_argument, const py::object& what) {
+        const std::string path = path_of(path_argument, "path");
         std::vector<std::byte> bytes;
         if (py::isinstance<Table>(what)) {
           const Table& t = what.cast<const Table&>();
@@ -607,9 +742,7 @@ PYBIND11_MODULE(basis, m) {
                                     python_provenance(t.parameters, t.source));
         } else if (py::isinstance<Captures>(what)) {
           const Captures& c = what.cast<const Captures&>();
-          bytes = encode_capture_set(
-              c.view, c.projection,
-              python_provenance(c.recipe ? capture_parameters(*c.recipe) : std::string("{}")));
+          bytes = encode_capture_set(c.view, c.projection, captures_provenance(c));
         } else if (py::isinstance<Tree>(what)) {
           bytes = encode_tree(what.cast<const Tree&>().view, {}, python_provenance());
         } else {

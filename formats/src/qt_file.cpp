@@ -147,12 +147,22 @@ std::string extent_problem(const TreeExtent& e, bool exact_texels) {
   if (!(e.scales.value_scale > 0 && e.scales.value_scale < INFINITY) ||
       !(e.scales.bound_scale > 0 && e.scales.bound_scale < INFINITY))
     return "a tree's scales are not finite positive numbers";
+  // Packing writes a power of two no larger than this; a larger one would decode halves (or
+  // shared-exponent words, or bound codes) to infinity.
+  int exponent = 0;
+  if (std::frexp(e.scales.value_scale, &exponent) != 0.5f ||
+      e.scales.value_scale > kLargestValueScale)
+    return "a tree's value scale " + std::to_string(e.scales.value_scale) +
+           " is not a power of two up to 2^110";
+  if (e.scales.bound_scale > kLargestBoundScale)
+    return "a tree's bound scale " + std::to_string(e.scales.bound_scale) + " exceeds 2^125";
   return {};
 }
 
 // Opens a regular file of at most the format's size; returns its descriptor and size.
 std::pair<int, std::size_t> open_regular_file(const std::string& path) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  // Without blocking, so that a FIFO is refused below instead of waiting for a writer.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
   if (fd < 0) fail(path, std::strerror(errno));
   struct stat st {};
   if (::fstat(fd, &st) != 0) {

@@ -528,6 +528,27 @@ TEST(QtFormat, SemanticViolationsAreNamedAndNeverWritten) {
     scaled.scales.bound_scale = scale;
     EXPECT_NE(error_of(scaled).find("scales"), std::string::npos) << scale;
   }
+  // Scales no packing writes, under which a half (or a bound code) would decode to infinity,
+  // and the largest it writes, accepted.
+  for (const float scale : {0x1p111f, 0x1p126f, 3.0f, 0.75f}) {
+    PackedTree scaled = good;
+    scaled.scales.value_scale = scale;
+    EXPECT_NE(error_of(scaled).find("value scale"), std::string::npos) << scale;
+  }
+  for (const float scale : {0x1p125f * 1.5f, 0x1p127f}) {
+    PackedTree scaled = good;
+    scaled.scales.bound_scale = scale;
+    EXPECT_NE(error_of(scaled).find("bound scale"), std::string::npos) << scale;
+  }
+  PackedTree largest = good;
+  largest.scales.value_scale = kLargestValueScale;
+  largest.scales.bound_scale = kLargestBoundScale;
+  EXPECT_EQ(error_of(largest), "");
+  // Packing refuses what those scales cannot hold.
+  Grid huge(8, 1);
+  for (float& t : huge.texels)
+    t = 0x1p125f;
+  EXPECT_THROW(pack(project(huge)), std::overflow_error);
   // A bound kind no writer holds.
   const TreeExtent extent = whole_tree(good);
   EXPECT_EQ(

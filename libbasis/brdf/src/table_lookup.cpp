@@ -135,6 +135,13 @@ Convolution reflect(const BrdfTableView& table, const EntriesAtWo& entries,
 Convolution reflect_tilted(const BrdfTableView& table, const PackedTreeView& radiance,
                            const Vec3& wo_shading, const Tilt& tilt, TiltCompensation mode,
                            const LookupOptions& options) {
+  outgoing_direction(wo_shading);  // refuses wo below the horizon, zero or not finite
+  if (!std::isfinite(tilt.x) || !std::isfinite(tilt.y))
+    throw std::invalid_argument("tilt is not finite");
+  if (tilt.angle() > kLargestTilt * (1 + 1e-9))
+    throw std::invalid_argument("tilt of " + std::to_string(tilt.angle() * 180 / std::numbers::pi) +
+                                " degrees: a surface tilted past 90 degrees faces away from the "
+                                "hemisphere the radiance was recorded over");
   if (mode == TiltCompensation::none) return reflect(table, radiance, wo_shading, options);
   // Re-parametrised: the entry whose lobe sits where the tilted surface's lobe sits.
   Vec3 wo = tilt_rotation(tilt).transpose() * wo_shading;

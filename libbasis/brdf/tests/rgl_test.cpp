@@ -417,10 +417,15 @@ TEST(RglBrdf, SampledAlbedoMatchesReferenceTable) {
   const auto files = sample_files();
   if (files.empty()) return;  // the synthetic albedo is checked in the first test
   std::mt19937 rng(17);
+  int checked = 0;
   for (const ReferenceAlbedo& r : kReferenceAlbedos) {
     const auto it = std::find_if(files.begin(), files.end(),
                                  [&](const std::string& p) { return stem(p) == r.file; });
-    if (it == files.end()) continue;
+    if (it == files.end()) {
+      std::printf("[  NOTE    ] %s.bsdf is absent from the shared folder: not checked\n", r.file);
+      continue;
+    }
+    ++checked;
     const auto brdf = RglBrdf::read(*it);
     for (double theta : {0.0, 45.0}) {
       const Albedo a = sampled_albedo(*brdf, direction(theta, 0), 200, rng);
@@ -429,10 +434,11 @@ TEST(RglBrdf, SampledAlbedoMatchesReferenceTable) {
           "[  INFO    ] %s theta_i %2.0f: albedo %.4f %.4f %.4f (reference %.4f %.4f %.4f)\n",
           r.file, theta, a.mean[0], a.mean[1], a.mean[2], expected[0], expected[1], expected[2]);
       for (int c = 0; c < 3; ++c)
-        EXPECT_NEAR(a.mean[c], expected[c], 0.01 * expected[c] + 5 * a.standard_error[c] + 2e-3)
+        EXPECT_NEAR(a.mean[c], expected[c], 0.01 * expected[c] + 5 * a.standard_error[c])
             << r.file << " theta_i " << theta << " channel " << c;
     }
   }
+  EXPECT_GT(checked, 0);
 }
 
 TEST(RglBrdf, SamplerPdfAgreesWithEvaluate) {

@@ -1037,8 +1037,11 @@ void check_weights(const PackedTreeView& a, std::span<const float> weights) {
     if (!std::isfinite(w)) throw std::invalid_argument("a group weight is not finite");
 }
 
-// An accuracy target stops on the bound: it cannot go without one.
+// An accuracy target is a fraction from 0 to 1, and stops on the bound: it cannot go without one.
 void check_options(const ConvolutionOptions& options) {
+  if (!(options.accuracy >= 0 && options.accuracy <= 1))
+    throw std::invalid_argument("an accuracy target must be from 0 to 1, got " +
+                                std::to_string(options.accuracy));
   if (!options.bound && options.accuracy > 0)
     throw std::invalid_argument("an accuracy target needs the certified bound it stops on");
 }

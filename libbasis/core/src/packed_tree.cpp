@@ -61,6 +61,8 @@ PackedTree pack_tree(const Quadtree& tree, BoundKind bounds, int bounded_groups,
       for (int c = 0; c < s.channels; ++c)
         for (int q = 0; q < 4; ++q)
           largest = std::max(largest, double(std::abs(source.value(n, g, c, q))));
+  if (largest >= kPackedValueLimit)
+    throw std::overflow_error("values of 2^125 (4.3e37) or more cannot be packed");
   out.scales.value_scale = largest > 0 ? std::ldexp(1.0f, std::ilogb(largest) - 14) : 1.0f;
   const double value_scale = out.scales.value_scale;
   // Every node's value words, once (halves, or a shared-exponent word per quadrant); bounds for
@@ -105,6 +107,8 @@ PackedTree pack_tree(const Quadtree& tree, BoundKind bounds, int bounded_groups,
         }
     if (!shared) std::memcpy(w, h.data(), value_words * sizeof(std::uint32_t));
   }
+  if (largest_bound >= kPackedValueLimit)
+    throw std::overflow_error("error bounds of 2^125 (4.3e37) or more cannot be packed");
   float bound_scale = float(largest_bound);
   if (double(bound_scale) < largest_bound) bound_scale = std::nextafter(bound_scale, INFINITY);
   out.scales.bound_scale = bound_scale > 0 ? bound_scale : 1.0f;

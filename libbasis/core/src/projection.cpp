@@ -98,6 +98,9 @@ std::vector<float> absolute_tolerances(const ProjectionOptions& options,
   if (!(options.tolerance >= 0) || !std::isfinite(options.tolerance))
     throw std::invalid_argument("tolerance must be a finite number >= 0, got " +
                                 std::to_string(options.tolerance));
+  if (!(options.local_floor >= 0) || !std::isfinite(options.local_floor))
+    throw std::invalid_argument("tolerance floor must be a finite number >= 0, got " +
+                                std::to_string(options.local_floor));
   std::vector<float> tol;
   for (double mean : channel_means)
     tol.push_back(float(options.mode == ProjectionOptions::Mode::relative

@@ -353,6 +353,14 @@ TEST(PackedConvolution, AnAccuracyTargetNeedsTheBound) {
   EXPECT_THROW(convolve_weighted(a.view(), w, b.view(), both), std::invalid_argument);
   EXPECT_THROW(convolve_weighted_scalar(a.view(), w, b.view(), both), std::invalid_argument);
   EXPECT_NO_THROW(convolve(a.view(), b.view(), {.accuracy = 0.05}));
+  // Targets are fractions from 0 to 1.
+  for (const double accuracy : {-0.1, 1.5, std::nan(""), double(INFINITY)}) {
+    const ConvolutionOptions target{.accuracy = accuracy};
+    EXPECT_THROW(convolve(a.view(), b.view(), target), std::invalid_argument) << accuracy;
+    EXPECT_THROW(convolve_scalar(a.view(), b.view(), target), std::invalid_argument) << accuracy;
+    EXPECT_THROW(convolve_weighted(a.view(), w, b.view(), target), std::invalid_argument);
+  }
+  EXPECT_NO_THROW(convolve(a.view(), b.view(), {.accuracy = 1}));
 }
 
 }  // namespace

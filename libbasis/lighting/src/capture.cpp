@@ -249,6 +249,9 @@ CaptureSet capture_set(const Environment& environment, const RayScene* scene,
                        const TaskControl& control, CaptureTimings* timings) {
   const std::size_t count = points.size();
   if (count == 0) throw std::invalid_argument("no points to capture");
+  for (std::size_t k = 0; k < count; ++k)
+    if (!points[k].position.allFinite())
+      throw std::invalid_argument("point " + std::to_string(k) + "'s position is NaN or infinite");
   std::vector<PackedTree> trees(count);
   std::vector<Frame> frames(count);
   std::vector<std::vector<DirectionalLight>> lights(count);

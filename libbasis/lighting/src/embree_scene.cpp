@@ -82,11 +82,28 @@ RTCRay embree_ray(const Ray& r, unsigned id) {
 
 constexpr std::size_t kBatch = 256;
 
+// Flush-to-zero and denormals-are-zero, as Embree asks for while it traces, in this thread until
+// the scope ends; then the caller's two modes again (a program's own arithmetic, NumPy's from
+// Python, keeps its subnormals).
+class FlushDenormalsWhileTracing {
+ public:
+  FlushDenormalsWhileTracing() : saved_(_mm_getcsr() & kModes) {
+    _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
+    _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
+  }
+  ~FlushDenormalsWhileTracing() { _mm_setcsr((_mm_getcsr() & ~kModes) | saved_); }
+  FlushDenormalsWhileTracing(const FlushDenormalsWhileTracing&) = delete;
+  FlushDenormalsWhileTracing& operator=(const FlushDenormalsWhileTracing&) = delete;
+
+ private:
+  static constexpr unsigned kModes = _MM_FLUSH_ZERO_MASK | _MM_DENORMALS_ZERO_MASK;
+  unsigned saved_;
+};
+
 // Calls found(index, hit) for every ray with its nearest hit (geomID invalid when it escapes).
 template <typename Found>
 void intersect_batches(RTCScene scene, std::span<const Ray> rays, Found&& found) {
-  _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
-  _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
+  const FlushDenormalsWhileTracing mode;
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   std::vector<RTCRayHit> batch(kBatch);
@@ -107,8 +124,7 @@ void intersect_batches(RTCScene scene, std::span<const Ray> rays, Found&& found)
 
 void EmbreeScene::trace(std::span<const Ray> rays, std::span<RayHit> hits) const {
   if (state_->emitters) return trace_nearest(rays, hits);
-  _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
-  _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
+  const FlushDenormalsWhileTracing mode;
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRay batch[kBatch];

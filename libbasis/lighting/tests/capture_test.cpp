@@ -314,7 +314,9 @@ TEST(Capture, RotatingTheMapMovesItsFeaturesToPhiPlusTheRotation) {
     }
     const Vec3 patch = direction(203, 53, rotation);
     EXPECT_NEAR(env.radiance(patch)[0], 1000, 1e-3) << rotation;
-    if (rotation != 0) EXPECT_NEAR(env.radiance(direction(203, 53, 0))[0], 1, 1e-6) << rotation;
+    if (rotation != 0) {
+      EXPECT_NEAR(env.radiance(direction(203, 53, 0))[0], 1, 1e-6) << rotation;
+    }
   }
 }
 

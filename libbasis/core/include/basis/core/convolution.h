@@ -60,7 +60,8 @@ struct ConvolutionOptions {
   // certified bound is at most accuracy / 2 x (|a b| + E) area, E the whole integral as the
   // roots' quadrants estimate it. The bounds of such stops add up to at most accuracy / 2 x
   // (value + E): the reported bound stays within about `accuracy` of the value (plus what the
-  // leaves contribute). 0 descends to the leaves.
+  // leaves contribute). 0 descends to the leaves. From 0 to 1 (std::invalid_argument otherwise,
+  // NaN included).
   double accuracy = 0;
   // Whether to certify: false gives the value alone, from the same descent (the same pairs and
   // sums, so the same value to the bit), without the bound's arithmetic, and a bound of

@@ -82,6 +82,13 @@ inline float bound_code_value(std::uint8_t c) {
   return std::bit_cast<float>((std::uint32_t(c) << 20) + kBoundCodeBias);
 }
 
+// Values and bounds that packing takes: below 2^125, so that a tree's value scale is at most
+// 2^110 and its bound scale below 2^125, and whatever halves, shared-exponent words or bound codes
+// a file holds decode to finite floats (readers refuse larger scales: kLargestValueScale,
+// kLargestBoundScale). pack() throws std::overflow_error beyond.
+inline constexpr double kPackedValueLimit = 0x1p125;
+inline constexpr float kLargestValueScale = 0x1p110f, kLargestBoundScale = 0x1p125f;
+
 // The smallest bound code whose value times bound_scale is at least `bound` (255 when none is):
 // a bound rounded up to a code, so that it still holds.
 std::uint8_t bound_code_at_least(double bound, float bound_scale);
