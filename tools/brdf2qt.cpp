@@ -11,6 +11,7 @@
 #include "basis/core/version.h"
 #include "basis/format/qt_file.h"
 #include "basis/format/qt_recipe.h"
+#include "basis/io/json_text.h"
 #include "cli.h"
 
 int main(int argc, char** argv) {
@@ -39,20 +40,21 @@ int main(int argc, char** argv) {
                  "200, up to 129; see README)")
       ->check(CLI::Range(2, 256));
   app.add_option(
-      "--wi-res", wi_res,
-      "texels per side of each entry over the incoming direction, a power of two up to 512 "
-      "(default 128). Lookups multiply an entry's texels with a capture's, so the finer of the "
-      "two resolutions limits what a sharp lobe resolves: glossy reflections of a low sun erred "
-      "by up to 1.3 % with 64 and 3.3 % with 32 (see README)");
+         "--wi-res", wi_res,
+         "texels per side of each entry over the incoming direction, a power of two up to 512 "
+         "(default 128). Lookups multiply an entry's texels with a capture's, so the finer of the "
+         "two resolutions limits what a sharp lobe resolves: glossy reflections of a low sun erred "
+         "by up to 1.3 % with 64 and 3.3 % with 32 (see README)")
+      ->check(CLI::Range(2, 512));
   app.add_option("--tolerance", tolerance,
                  "refine while a quadrant's error bound exceeds this fraction of its own value, "
                  "or of --tolerance-floor times the entry's mean where that is larger (default "
                  "0.05)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(basis::cli::non_negative_number());
   app.add_option("--tolerance-floor", tolerance_floor,
                  "the floor of the locally relative tolerance, a fraction of the entry's mean "
                  "(default 0.2; 0 makes --tolerance relative to the entry's mean everywhere)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(basis::cli::non_negative_number());
   app.add_flag("--absolute", absolute, "read --tolerance as an absolute value (1/sr)");
   app.add_option("--bounds", bounds,
                  "what the stored bounds bound: l2 (default), each quadrant's RMS deviation, "
@@ -103,12 +105,11 @@ int main(int argc, char** argv) {
     if (quiet) return;
     const std::size_t nodes = table.trees.view().total_nodes();
     if (json) {
-      std::cout << nlohmann::ordered_json{{"output", output},
-                                          {"entries", table.trees.size()},
-                                          {"nodes", nodes},
-                                          {"bytes", bytes.size()},
-                                          {"seconds", seconds}}
-                       .dump()
+      std::cout << basis::json_text(nlohmann::ordered_json{{"output", output},
+                                                           {"entries", table.trees.size()},
+                                                           {"nodes", nodes},
+                                                           {"bytes", bytes.size()},
+                                                           {"seconds", seconds}})
                 << "\n";
       return;
     }

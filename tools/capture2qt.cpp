@@ -14,6 +14,7 @@
 #include "basis/format/qt_shard.h"
 #include "basis/io/image.h"
 #include "basis/io/image_file.h"
+#include "basis/io/json_text.h"
 #include "basis/lighting/capture.h"
 #include "basis/lighting/embree_scene.h"
 #include "basis/lighting/mesh.h"
@@ -58,7 +59,8 @@ int main(int argc, char** argv) {
                     "lat-long environment map (EXR, HDR, any format OpenImageIO reads; at most "
                     "2^28 pixels)");
   light->add_option("--env-constant", env_constant, "constant environment radiance R,G,B");
-  app.add_option("--env-rotate", env_rotate, "rotate the environment about z by this many degrees");
+  app.add_option("--env-rotate", env_rotate, "rotate the environment about z by this many degrees")
+      ->check(basis::cli::finite_number());
   app.add_option("--scene", scene_path,
                  "OBJ scene that occludes (polygons are triangulated; up to 4 GiB and 2^28 "
                  "triangles)");
@@ -87,7 +89,7 @@ int main(int argc, char** argv) {
   app.add_option("--tolerance", tolerance,
                  "refine while a quadrant's error bound exceeds this fraction of the capture's "
                  "mean, lights kept apart included (default 0.05)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(basis::cli::non_negative_number());
   app.add_flag("--absolute", absolute, "read --tolerance as an absolute radiance");
   app.add_option("--bounds", bounds,
                  "what the stored bounds bound: l2 (default), each quadrant's RMS deviation, "
@@ -150,9 +152,9 @@ int main(int argc, char** argv) {
       const nlohmann::ordered_json parameters = {{"tolerance", tolerance},
                                                  {"mode", absolute ? "absolute" : "relative"}};
       basis::write_qt(
-          output,
-          basis::encode_tree(basis::pack_exact_texels(tree, bound_kind).view(), recipe.projection,
-                             {"capture2qt", basis::kVersion, parameters.dump(), {image_path}}));
+          output, basis::encode_tree(
+                      basis::pack_exact_texels(tree, bound_kind).view(), recipe.projection,
+                      {"capture2qt", basis::kVersion, basis::json_text(parameters), {image_path}}));
       if (!quiet)
         std::printf("%s: one capture of %d x %d texels, %d nodes\n", output.c_str(),
                     grid.resolution, grid.resolution, tree.node_count());
@@ -295,19 +297,19 @@ int main(int argc, char** argv) {
     if (quiet) return;
     const std::size_t nodes = set.trees.view().total_nodes();
     if (json) {
-      std::cout << nlohmann::ordered_json{{"output", output},
-                                          {"captures", set.positions.size()},
-                                          {"first_point", mine.first},
-                                          {"total_points", total_points},
-                                          {"nodes", nodes},
-                                          {"environment_lights", environment.lights().size()},
-                                          {"lights", set.lights.size()},
-                                          {"bytes", bytes.size()},
-                                          {"rays", timings.stats.rays},
-                                          {"capture_seconds", timings.capture_seconds},
-                                          {"projection_seconds", timings.projection_seconds},
-                                          {"seconds", seconds}}
-                       .dump()
+      std::cout << basis::json_text(
+                       nlohmann::ordered_json{{"output", output},
+                                              {"captures", set.positions.size()},
+                                              {"first_point", mine.first},
+                                              {"total_points", total_points},
+                                              {"nodes", nodes},
+                                              {"environment_lights", environment.lights().size()},
+                                              {"lights", set.lights.size()},
+                                              {"bytes", bytes.size()},
+                                              {"rays", timings.stats.rays},
+                                              {"capture_seconds", timings.capture_seconds},
+                                              {"projection_seconds", timings.projection_seconds},
+                                              {"seconds", seconds}})
                 << "\n";
       return;
     }

@@ -6,6 +6,7 @@
 #include <csignal>
 #include <cstdio>
 #include <iostream>
+#include <limits>
 #include <sstream>
 
 #include "basis/core/file_error.h"
@@ -124,6 +125,34 @@ Shard parse_shard_option(const std::string& text, std::uint64_t total, const std
                      std::to_string(total) + " " + what + " leave some empty; use at most " +
                      std::to_string(total));
   return shard;
+}
+
+namespace {
+
+// A finite number, at least `lowest` (above it when `strictly`), named `what` in the message.
+CLI::Validator number_check(double lowest, bool strictly, const std::string& what,
+                            const std::string& description) {
+  return CLI::Validator(
+      [lowest, strictly, what](std::string& text) -> std::string {
+        double value = 0;
+        if (!CLI::detail::lexical_cast(text, value) || !std::isfinite(value) || value < lowest ||
+            (strictly && value == lowest))
+          return what + " is required, got " + text;
+        return {};
+      },
+      description, what);
+}
+
+}  // namespace
+
+CLI::Validator finite_number() {
+  return number_check(-std::numeric_limits<double>::max(), false, "a finite number", "FINITE");
+}
+CLI::Validator non_negative_number() {
+  return number_check(0, false, "a finite number >= 0", "NONNEGATIVE");
+}
+CLI::Validator positive_number() {
+  return number_check(0, true, "a finite number > 0", "POSITIVE");
 }
 
 Vec3 parse_triple(const std::string& text, const std::string& option) {

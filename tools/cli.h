@@ -62,6 +62,13 @@ std::unique_ptr<tbb::task_arena> thread_arena(int threads);
 // of the run that leaves none empty. Throws UsageError naming the option.
 Shard parse_shard_option(const std::string& text, std::uint64_t total, const std::string& what);
 
+// Checks for numeric flags: a finite number; one >= 0; one > 0. CLI11's own ranges and signs let
+// NaN through (every comparison with it is false) and print the largest double in full; chain
+// finite_number() before a range.
+CLI::Validator finite_number();
+CLI::Validator non_negative_number();
+CLI::Validator positive_number();
+
 // Parses "X,Y,Z" into three finite numbers; throws UsageError naming the option.
 Vec3 parse_triple(const std::string& text, const std::string& option);
 // Parses "X,Y,Z" into the unit vector along it, whatever its length (1e-300 or 1e300 alike);

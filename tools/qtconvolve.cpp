@@ -12,6 +12,7 @@
 #include "basis/format/qt_manifest.h"
 #include "basis/io/atomic_file.h"
 #include "basis/io/image_file.h"
+#include "basis/io/json_text.h"
 #include "basis/io/picture.h"
 #include "basis/study/lookup_reference.h"
 #include "basis/study/timing.h"
@@ -140,7 +141,7 @@ std::string json_row(const Row& row) {
     r["reference"] = *row.reference;
     r["difference"] = d;
   }
-  return r.dump();
+  return basis::json_text(r);
 }
 
 // printf into a string of at most 255 characters.
@@ -267,6 +268,7 @@ int main(int argc, char** argv) {
                  "quadrants once its certified bound is at most this fraction of its "
                  "contribution, so that the reported bound stays within about this fraction of "
                  "the value (default 0: to the leaves)")
+      ->check(basis::cli::finite_number())
       ->check(CLI::Range(0.0, 1.0));
   app.add_flag("--time", time,
                "report the median time per convolution over repeated runs (of the first 65,536 "
@@ -453,7 +455,7 @@ int main(int argc, char** argv) {
       }
       std::string tail = "\n]";
       for (const auto& [key, value] : times.items())
-        tail += ",\n \"" + key + "\": " + value.dump();
+        tail += ",\n \"" + key + "\": " + basis::json_text(value);
       out.write(tail + "\n}\n");
     } else if (timing && csv) {
       std::fprintf(stderr, "qtconvolve: %s\n", timing_text(*timing, tree_timing).c_str());

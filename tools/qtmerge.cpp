@@ -13,6 +13,7 @@
 #include "basis/format/qt_manifest.h"
 #include "basis/format/qt_merge.h"
 #include "basis/format/qt_shard.h"
+#include "basis/io/json_text.h"
 #include "cli.h"
 
 namespace {
@@ -136,6 +137,6 @@ int main(int argc, char** argv) {
         std::printf("%s: a manifest of %zu shards, %llu points\n", manifest_output.c_str(),
                     sets.size(), static_cast<unsigned long long>(points));
     }
-    if (json && !quiet) std::cout << report.dump() << "\n";
+    if (json && !quiet) std::cout << basis::json_text(report) << "\n";
   });
 }

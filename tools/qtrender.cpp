@@ -9,6 +9,7 @@
 
 #include "basis/core/version.h"
 #include "basis/io/image_file.h"
+#include "basis/io/json_text.h"
 #include "basis/render/image_comparison.h"
 #include "basis/render/renderer.h"
 #include "cli.h"
@@ -71,7 +72,7 @@ int main(int argc, char** argv) {
   app.add_option("--time-budget", time_budget,
                  "mc: render as many whole samples per pixel as fit in this many seconds "
                  "(loading excluded)")
-      ->check(CLI::PositiveNumber);
+      ->check(basis::cli::positive_number());
   app.add_option("-o,--output", output, "output EXR (default SCENE_METHOD.exr)");
   app.add_option("--compare", compare,
                  "reference EXR of the same size: report relative MSE and RMSE over the pixels "
@@ -85,20 +86,21 @@ int main(int argc, char** argv) {
   app.add_option("--tolerance", cache.tolerance,
                  "cache: projection tolerance of the records, relative to their mean (default "
                  "0.05)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(basis::cli::non_negative_number());
   app.add_option("--radius-scale", cache.radius_scale,
                  "cache: validity radius as a multiple of the harmonic mean occluder distance "
                  "(default 1)")
-      ->check(CLI::PositiveNumber);
+      ->check(basis::cli::positive_number());
   app.add_option("--min-spacing", cache.min_spacing,
                  "cache: smallest validity radius, in pixels (default 1.5)")
-      ->check(CLI::PositiveNumber);
+      ->check(basis::cli::positive_number());
   app.add_option("--max-spacing", cache.max_spacing,
                  "cache: largest validity radius, in pixels (default 6)")
-      ->check(CLI::PositiveNumber);
+      ->check(basis::cli::positive_number());
   app.add_option("--max-normal", cache.max_normal_degrees,
                  "cache: normals further apart than this many degrees share no record (default "
                  "15)")
+      ->check(basis::cli::finite_number())
       ->check(CLI::Range(0.1, 90.0));
   app.add_option("--records", cache.max_records,
                  "cache: records interpolated per pixel, at most (default 4)")
@@ -106,6 +108,7 @@ int main(int argc, char** argv) {
   app.add_option("--lookup-accuracy", cache.lookup_accuracy,
                  "cache: stop each lookup's descent once its certified bound is within this "
                  "fraction of the value (default 0: to the leaves)")
+      ->check(basis::cli::finite_number())
       ->check(CLI::Range(0.0, 1.0));
   app.add_option("--first-spacing", first_spacing,
                  "cache: pixel spacing of the first placement pass (default 32)")
@@ -215,7 +218,7 @@ int main(int argc, char** argv) {
         j["p99_relerr"] = errors->p99_relative_error;
         j["compared_pixels"] = errors->pixels;
       }
-      std::cout << j.dump() << "\n";
+      std::cout << basis::json_text(j) << "\n";
       return;
     }
     std::printf("%s: %d x %d, %s, %.2f s (primary %.2f", output.c_str(), file.camera.width,

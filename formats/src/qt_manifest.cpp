@@ -13,6 +13,7 @@
 #include "basis/io/atomic_file.h"
 #include "basis/io/checksum.h"
 #include "basis/io/json_fields.h"
+#include "basis/io/json_text.h"
 #include "basis/io/points_file.h"
 
 namespace basis {
@@ -70,6 +71,9 @@ PointRange CaptureManifest::shard_points(std::size_t k) const {
 }
 
 bool is_manifest(const std::string& path) {
+  // Only a regular file is read: a FIFO would wait for a writer (the .qt reader names it).
+  std::error_code error;
+  if (!std::filesystem::is_regular_file(path, error)) return false;
   std::ifstream in(path, std::ios::binary);
   char c = 0;
   while (in.get(c))
@@ -96,7 +100,7 @@ CaptureManifest read_manifest(const std::string& path) {
       whole_number(fields, root, "total_points", "total_points", 1, std::uint64_t(1) << 40);
   if (!root.contains("run") || !root.at("run").is_object())
     fields.fail("run", "missing (the run's capture parameters, an object)");
-  manifest.run_parameters = root.at("run").dump();
+  manifest.run_parameters = json_text(root.at("run"));
   if (!root.contains("shards") || !root.at("shards").is_array() || root.at("shards").empty())
     fields.fail("shards", "missing (a list of shard files)");
   const json& shards = root.at("shards");
@@ -163,14 +167,14 @@ std::string manifest_json(const CaptureManifest& manifest) {
   for (const auto& [key, value] : j.items()) {
     text += first ? "" : ",\n";
     first = false;
-    text += "  " + json(key).dump() + ": ";
+    text += "  " + json_text(json(key)) + ": ";
     if (key != "shards") {
-      text += value.dump();
+      text += json_text(value);
       continue;
     }
     text += "[\n";
     for (std::size_t k = 0; k < value.size(); ++k)
-      text += "    " + value[k].dump() + (k + 1 < value.size() ? ",\n" : "\n");
+      text += "    " + json_text(value[k]) + (k + 1 < value.size() ? ",\n" : "\n");
     text += "  ]";
   }
   return text + "\n}\n";

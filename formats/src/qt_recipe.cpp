@@ -1,4 +1,5 @@
 #include "basis/format/qt_recipe.h"
+#include "basis/io/json_text.h"
 
 #include <charconv>
 #include <filesystem>
@@ -46,7 +47,7 @@ std::string table_parameters(const BrdfTableOptions& options) {
                                     {"mode", absolute ? "absolute" : "relative"},
                                     {"tilt_derivatives", options.tilt_derivatives},
                                     {"bounds", options.bounds == BoundKind::linf ? "linf" : "l2"}};
-  return j.dump();
+  return json_text(j);
 }
 
 std::string capture_parameters(const CaptureRecipe& r) {
@@ -71,7 +72,7 @@ std::string capture_parameters(const CaptureRecipe& r) {
     j["shard"] = {{"index", r.shard->shard.index},
                   {"count", r.shard->shard.count},
                   {"total_points", r.shard->total_points}};
-  return j.dump();
+  return json_text(j);
 }
 
 std::string run_parameters(const std::string& parameters, const std::string& name) {
@@ -83,7 +84,7 @@ std::string run_parameters(const std::string& parameters, const std::string& nam
   }
   if (!j.is_object()) throw FileError(name + ": unreadable capture parameters in its provenance");
   j.erase("shard");
-  return j.dump();
+  return json_text(j);
 }
 
 CaptureRecipe capture_recipe(const QtFile& captures) {

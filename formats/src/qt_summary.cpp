@@ -1,6 +1,7 @@
 #include "basis/format/qt_summary.h"
 #include "basis/core/projection.h"
 #include "basis/format/qt_merge.h"
+#include "basis/io/json_text.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -285,7 +286,7 @@ std::string render_text(const ordered_json& j) {
 }  // namespace
 
 std::string summary_json(const QtFile& file) {
-  return summarise(file).dump(2);
+  return json_text(summarise(file), 2);
 }
 
 std::string summary_text(const QtFile& file) {
@@ -293,7 +294,7 @@ std::string summary_text(const QtFile& file) {
 }
 
 std::string summary_json(const CaptureManifest& manifest, const TaskControl& control) {
-  return summarise(manifest, control).dump(2);
+  return json_text(summarise(manifest, control), 2);
 }
 
 std::string summary_text(const CaptureManifest& manifest, const TaskControl& control) {

@@ -549,6 +549,15 @@ TEST(QtFormat, SemanticViolationsAreNamedAndNeverWritten) {
   for (float& t : huge.texels)
     t = 0x1p125f;
   EXPECT_THROW(pack(project(huge)), std::overflow_error);
+  // Values as small as subnormal floats pack with a scale that is not zero, and write.
+  for (const float small : {1e-45f, 1e-40f, 1e-38f}) {
+    Grid tiny(8, 1);
+    for (float& t : tiny.texels)
+      t = small;
+    const PackedTree packed = pack(project(tiny));
+    EXPECT_GT(packed.scales.value_scale, 0) << small;
+    EXPECT_EQ(error_of(packed), "") << small;
+  }
   // A bound kind no writer holds.
   const TreeExtent extent = whole_tree(good);
   EXPECT_EQ(

@@ -3,9 +3,11 @@
 // gives one to three lines on stderr naming the input and the problem, exit status 1 for bad
 // data and 2 for bad usage, and leaves no output or temporary file behind.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <cmath>
 #include <fstream>
+#include <nlohmann/json.hpp>
 
 #include "basis/format/qt_file.h"
 #include "basis/io/image.h"
@@ -217,6 +219,54 @@ TEST(BadInputMatrix, AbsurdSizesAndTolerances) {
          2,
          "--shard"});
   check(dir, "qtinfo", {{"ok.qt", "--png", "x.png", "--size", "1000000"}, 2, "--size"});
+}
+
+// Numeric flags take finite numbers: NaN and infinity are bad usage, named, as out-of-range
+// values are (CLI11's own checks let NaN through).
+TEST(BadInputMatrix, NumbersThatAreNotFiniteAreBadUsage) {
+  TempDir dir;
+  write_inputs(dir);
+  for (const std::string bad : {"nan", "inf", "-inf"}) {
+    check(dir, "brdf2qt", {{"ok.json", "--tolerance", bad, "-o", "out.qt"}, 2, "--tolerance"});
+    check(dir, "brdf2qt",
+          {{"ok.json", "--tolerance-floor", bad, "-o", "out.qt"}, 2, "--tolerance-floor"});
+    check(dir, "capture2qt",
+          {{"--env-constant", "1,1,1", "--at", "0,0,0", "--env-rotate", bad, "-o", "out.qt"},
+           2,
+           "--env-rotate"});
+    check(dir, "capture2qt",
+          {{"--env-constant", "1,1,1", "--at", "0,0,0", "--tolerance", bad, "-o", "out.qt"},
+           2,
+           "--tolerance"});
+    check(dir, "qtconvolve",
+          {{"ok.qt", "cap.qt", "--accuracy", bad, "-o", "out.csv"}, 2, "--accuracy"});
+  }
+  check(dir, "brdf2qt", {{"ok.json", "--wi-res", "0", "-o", "out.qt"}, 2, "--wi-res"});
+}
+
+// A .qt path that is a FIFO is refused at once (it would otherwise wait for a writer).
+TEST(BadInputMatrix, FifosAreNotQtFiles) {
+  TempDir dir;
+  write_inputs(dir);
+  ASSERT_EQ(::mkfifo(dir.file("pipe.qt").c_str(), 0600), 0);
+  check(dir, "qtinfo", {{"pipe.qt"}, 1, "pipe.qt"});
+  check(dir, "qtconvolve", {{"ok.qt", "pipe.qt"}, 1, "pipe.qt"});
+}
+
+// File names that are not UTF-8 still give --json output, their bad bytes replaced.
+TEST(BadInputMatrix, FileNamesThatAreNotUtf8StillGiveJson) {
+  TempDir dir;
+  write_inputs(dir);
+  const std::string name = "caf\xe9.json";
+  write_text(dir.file(name), R"({"model": "lambert", "albedo": 0.5})");
+  const auto r =
+      run_tool("brdf2qt", {name, "--wo-res", "3", "--wi-res", "8", "--json"}, dir.path());
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["entries"].get<int>(), 9);
+  const auto info = run_tool("qtinfo", {"caf\xe9.qt", "--json"}, dir.path());
+  ASSERT_EQ(info.status, 0) << info.err;
+  EXPECT_EQ(nlohmann::json::parse(info.out)["kind"], "brdf-table");
 }
 
 TEST(BadInputMatrix, UnwritableOutputs) {

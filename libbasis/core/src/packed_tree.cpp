@@ -63,7 +63,10 @@ PackedTree pack_tree(const Quadtree& tree, BoundKind bounds, int bounded_groups,
           largest = std::max(largest, double(std::abs(source.value(n, g, c, q))));
   if (largest >= kPackedValueLimit)
     throw std::overflow_error("values of 2^125 (4.3e37) or more cannot be packed");
-  out.scales.value_scale = largest > 0 ? std::ldexp(1.0f, std::ilogb(largest) - 14) : 1.0f;
+  // At least the smallest normal float, so that the scale of values as small as subnormals is
+  // not zero.
+  out.scales.value_scale =
+      largest > 0 ? std::ldexp(1.0f, std::max(std::ilogb(largest) - 14, -126)) : 1.0f;
   const double value_scale = out.scales.value_scale;
   // Every node's value words, once (halves, or a shared-exponent word per quadrant); bounds for
   // the packed values: the source's plus how far each value moved.
