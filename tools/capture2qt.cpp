@@ -5,7 +5,10 @@
 #include <filesystem>
 #include <iostream>
 #include <limits>
+#include <mutex>
 #include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
 
 #include "basis/core/projection.h"
 #include "basis/core/version.h"
@@ -19,6 +22,35 @@
 #include "basis/lighting/embree_scene.h"
 #include "basis/lighting/mesh.h"
 #include "cli.h"
+
+namespace {
+
+// The --dump images of a run, removed again unless the run's output is written: a failed or
+// interrupted capture leaves no output at all. Images are added from the capture's threads.
+class DumpedImages {
+ public:
+  DumpedImages() = default;
+  DumpedImages(const DumpedImages&) = delete;
+  DumpedImages& operator=(const DumpedImages&) = delete;
+  ~DumpedImages() {
+    if (kept_) return;
+    std::error_code ignored;
+    for (const std::string& path : paths_)
+      std::filesystem::remove(path, ignored);
+  }
+  void add(const std::string& path) {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    paths_.push_back(path);
+  }
+  void keep() { kept_ = true; }
+
+ private:
+  std::mutex mutex_;
+  std::vector<std::string> paths_;
+  bool kept_ = false;
+};
+
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app(
@@ -263,6 +295,12 @@ int main(int argc, char** argv) {
       if (skip_existing && !quiet)
         std::fprintf(stderr, "capture2qt: making shard %s: %s\n", shard_text.c_str(), why->c_str());
     }
+    // The output's folder is there before any work (or any --dump image) is done.
+    const std::filesystem::path output_folder =
+        std::filesystem::absolute(std::filesystem::path(output)).parent_path();
+    if (!std::filesystem::is_directory(output_folder))
+      throw basis::FileError(output + ": no such folder");
+    DumpedImages dumped;
     if (!dump.empty()) {
       if (!std::filesystem::is_directory(dump))
         throw basis::FileError(dump + ": not a directory (--dump writes into an existing one)");
@@ -272,8 +310,9 @@ int main(int argc, char** argv) {
         std::snprintf(name, sizeof name, "capture_%05zu.exr", index);
         basis::Grid texels = grid;
         basis::splat_lights(lights, texels);
-        basis::write_image((std::filesystem::path(dump) / name).string(),
-                           basis::grid_to_image(texels));
+        const std::string path = (std::filesystem::path(dump) / name).string();
+        basis::write_image(path, basis::grid_to_image(texels));
+        dumped.add(path);
       };
     }
     const auto arena = basis::cli::thread_arena(threads);
@@ -292,6 +331,7 @@ int main(int argc, char** argv) {
       basis::write_shard_file(output, bytes);
     else
       basis::write_qt(output, bytes);
+    dumped.keep();
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (quiet) return;

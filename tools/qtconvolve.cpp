@@ -438,6 +438,8 @@ int main(int argc, char** argv) {
       first_block = false;
     });
     progress.finish();
+    // Interrupted after the last block (while timing, say): nothing is written.
+    progress.control().check();
     if (first_block) write_header();  // a shard without results
 
     if (!png.empty())

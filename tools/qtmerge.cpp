@@ -13,6 +13,7 @@
 #include "basis/format/qt_manifest.h"
 #include "basis/format/qt_merge.h"
 #include "basis/format/qt_shard.h"
+#include "basis/io/atomic_file.h"
 #include "basis/io/json_text.h"
 #include "cli.h"
 
@@ -116,22 +117,37 @@ int main(int argc, char** argv) {
     }
     progress.finish();
 
-    // The join first: a refusal (past 2 GiB) or a failed write leaves no manifest either.
+    // Both outputs are made, then written to temporary files, and only then put in place: a
+    // refusal (past 2 GiB) or a failed write of either leaves neither.
     nlohmann::ordered_json report = {{"shards", sets.size()}, {"points", points}};
+    std::vector<std::byte> joined;
     if (!output.empty()) {
-      const std::vector<std::byte> bytes =
-          basis::merge_capture_sets(sets, basis::run_provenance(*sets.front()), output);
+      joined = basis::merge_capture_sets(sets, basis::run_provenance(*sets.front()), output);
       control.check();
-      basis::write_qt(output, bytes);
-      report["output"] = output;
-      report["bytes"] = bytes.size();
-      if (!quiet && !json)
-        std::printf("%s: %zu shards joined, %llu captures, %.2f MiB\n", output.c_str(), sets.size(),
-                    static_cast<unsigned long long>(points), double(bytes.size()) / (1 << 20));
+    }
+    std::string manifest_text;
+    if (!manifest_output.empty())
+      manifest_text = basis::manifest_json(basis::make_manifest(shard_files, manifest_output));
+    std::optional<basis::AtomicFileWriter> joined_file, manifest_file;
+    if (!output.empty()) {
+      joined_file.emplace(output);
+      joined_file->write(joined);
     }
     if (!manifest_output.empty()) {
-      const basis::CaptureManifest manifest = basis::make_manifest(shard_files, manifest_output);
-      basis::write_manifest(manifest);
+      manifest_file.emplace(manifest_output);
+      manifest_file->write(manifest_text);
+    }
+    control.check();
+    if (joined_file) {
+      joined_file->commit();
+      report["output"] = output;
+      report["bytes"] = joined.size();
+      if (!quiet && !json)
+        std::printf("%s: %zu shards joined, %llu captures, %.2f MiB\n", output.c_str(), sets.size(),
+                    static_cast<unsigned long long>(points), double(joined.size()) / (1 << 20));
+    }
+    if (manifest_file) {
+      manifest_file->commit();
       report["manifest"] = manifest_output;
       if (!quiet && !json)
         std::printf("%s: a manifest of %zu shards, %llu points\n", manifest_output.c_str(),

@@ -191,8 +191,8 @@ int main(int argc, char** argv) {
     if (!compare.empty()) errors = basis::compare_images(result.image, reference, result.covered);
     const double average =
         mean_luminance(compare.empty() ? result.image : reference, result.covered);
-    basis::write_image(output, result.image);
-    basis::write_image(png, tone_mapped(result.image, average));
+    const basis::Image picture = tone_mapped(result.image, average);
+    basis::write_images({{output, &result.image}, {png, &picture}});
     if (quiet) return;
     const basis::RenderTimings& t = result.timings;
     if (json) {

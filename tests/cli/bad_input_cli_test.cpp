@@ -282,6 +282,9 @@ TEST(BadInputMatrix, UnwritableOutputs) {
     check(dir, "qtconvolve", {{"ok.qt", "cap.qt", "--csv", "-o", out}, 1, out});
     check(dir, "qtmerge", {{"shard.0.qt", "-o", out}, 1, out});
     check(dir, "qtmerge", {{"shard.0.qt", "--manifest", out}, 1, out});
+    // Two outputs: when either cannot be written, neither is.
+    check(dir, "qtmerge", {{"shard.0.qt", "-o", "joined.qt", "--manifest", out}, 1, out});
+    check(dir, "qtmerge", {{"shard.0.qt", "-o", out, "--manifest", "listed.qtm"}, 1, out});
   }
   for (const std::string out : {"no/such/folder/x.png", "/proc/basis-test.png"}) {
     check(dir, "qtinfo", {{"ok.qt", "--png", out}, 1, out});

@@ -260,6 +260,22 @@ TEST(Capture2qtCli, InterruptLeavesNoOutput) {
     EXPECT_NE(r.err.find("interrupted"), std::string::npos) << r.err;
     EXPECT_EQ(dir.entries(), (std::vector<std::string>{"room.mtl", "room.obj"}));
   }
+  // With --dump, interrupted or failing at its output, no image is left either; a missing
+  // output folder is found before any capture.
+  std::filesystem::create_directories(dir.file("dump"));
+  const auto interrupted = run_tool("capture2qt",
+                                    {"--env-constant", "1,1,1", "--scene", "room.obj", "--sample",
+                                     "100000", "--res", "16", "--dump", "dump"},
+                                    dir.path(), 500, SIGINT);
+  EXPECT_EQ(interrupted.status, 130) << interrupted.err;
+  EXPECT_TRUE(std::filesystem::is_empty(dir.file("dump")));
+  const auto nowhere = run_tool("capture2qt",
+                                {"--env-constant", "1,1,1", "--scene", "room.obj", "--sample", "20",
+                                 "--res", "16", "--dump", "dump", "-o", "no/such/c.qt"},
+                                dir.path());
+  EXPECT_EQ(nowhere.status, 1) << nowhere.err;
+  EXPECT_NE(nowhere.err.find("no/such/c.qt"), std::string::npos) << nowhere.err;
+  EXPECT_TRUE(std::filesystem::is_empty(dir.file("dump")));
 }
 
 }  // namespace

@@ -99,6 +99,17 @@ TEST(QtrenderCli, BadScenesGetOneLineAndNoImage) {
     EXPECT_NE(r.err.find(named), std::string::npos) << r.err;
     EXPECT_FALSE(std::filesystem::exists(out)) << name;
   }
+  // The EXR and its PNG are one output: when the PNG cannot be written (a folder in its place),
+  // neither is, and nothing temporary is left.
+  write_text(dir.file("good.json"), scene_text(kCamera, "m.json"));
+  std::filesystem::create_directory(dir.file("good.png"));
+  const auto both = run_tool("qtrender", {dir.file("good.json"), "-o", dir.file("good.exr"),
+                                          "--method", "mc", "--spp", "1"});
+  EXPECT_EQ(both.status, 1) << both.err;
+  EXPECT_NE(both.err.find("good.png"), std::string::npos) << both.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("good.exr")));
+  for (const auto& entry : std::filesystem::directory_iterator(dir.path()))
+    EXPECT_EQ(entry.path().filename().string().find(".partial"), std::string::npos) << entry.path();
   const auto usage = run_tool("qtrender", {dir.file("nowhere.json"), "-o", dir.file("x.png")});
   EXPECT_EQ(usage.status, 2);
   const auto help = run_tool("qtrender", {"--help"});

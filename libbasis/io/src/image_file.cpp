@@ -7,6 +7,7 @@
 
 #include <dlfcn.h>
 #include <link.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <filesystem>
@@ -140,6 +141,41 @@ void write_image(const std::string& path, const Image& image) {
         functions.write(path, temp, image.width, image.height, image.channels, image.pixels.data());
     if (!problem.empty()) throw FileError(path + ": " + problem);
   });
+}
+
+void write_images(const std::vector<NamedImage>& images) {
+  namespace fs = std::filesystem;
+  // Each temporary keeps its destination's extension, which picks the format.
+  std::vector<std::string> written;
+  auto remove_written = [&] {
+    std::error_code ignored;
+    for (const std::string& temp : written)
+      fs::remove(temp, ignored);
+  };
+  try {
+    for (const NamedImage& named : images) {
+      std::error_code error;
+      if (fs::is_directory(named.path, error))
+        throw FileError(named.path + ": is a directory, not an image");
+      const fs::path path(named.path);
+      std::string name = ".";
+      name += path.stem().string();
+      name += ".partial-";
+      name += std::to_string(::getpid());
+      name += path.extension().string();
+      const std::string temp = (path.parent_path() / name).string();
+      written.push_back(temp);
+      write_image(temp, *named.image);
+    }
+    for (std::size_t k = 0; k < images.size(); ++k) {
+      std::error_code error;
+      fs::rename(written[k], images[k].path, error);
+      if (error) throw FileError(images[k].path + ": " + error.message());
+    }
+  } catch (...) {
+    remove_written();
+    throw;
+  }
 }
 
 }  // namespace basis

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "basis/core/file_error.h"
 #include "basis/io/image.h"
@@ -19,5 +20,14 @@ Image read_image(const std::string& path);
 // Writes atomically; the format follows the extension (.exr stores floats, .png and others
 // 8-bit values clamped to [0,1]). Throws FileError.
 void write_image(const std::string& path, const Image& image);
+
+// Writes several images as one output (a render's EXR and its PNG): each to a temporary file
+// beside its destination, then all put in place, so that when any cannot be written none is,
+// and the files they would replace stay as they were. Throws FileError naming the path.
+struct NamedImage {
+  std::string path;
+  const Image* image = nullptr;
+};
+void write_images(const std::vector<NamedImage>& images);
 
 }  // namespace basis
