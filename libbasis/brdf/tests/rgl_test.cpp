@@ -329,8 +329,10 @@ TEST(RglBrdf, ReadsEverySampleFile) {
   }
 }
 
-// Section 9 of the format note: f cos(theta_o) and pdf from a double-precision copy of the
-// reference evaluator. Directions as (theta, phi) in degrees.
+// f cos(theta_o) and pdf at a few directions, recorded when the reader was written from a
+// double-precision evaluation following the format's definition (the evaluation itself is not in
+// this repository, so these figures are a record, not an independent implementation run here).
+// Directions as (theta, phi) in degrees.
 struct ReferenceValue {
   const char* file;
   double wi_theta, wi_phi, wo_theta, wo_phi;
@@ -385,7 +387,7 @@ TEST(RglBrdf, MatchesReferenceValues) {
     }
     ++checked;
   }
-  // Isotropy: rotating both directions about the normal changes nothing (note, section 9).
+  // Isotropy: rotating both directions about the normal changes nothing.
   for (const std::string& path : files) {
     const auto brdf = RglBrdf::read(path);
     const Color a = brdf->evaluate_parametrised(direction(45, 0), direction(45, 180));
@@ -396,8 +398,9 @@ TEST(RglBrdf, MatchesReferenceValues) {
   EXPECT_GT(checked, 0);
 }
 
-// Albedo by the file's own sampler at theta_i = 0 and 45 degrees (note, section 9: 40 000
-// stratified samples; the numbers carry about one standard error of 0.0002 to 0.0009).
+// Albedo by the file's own sampler at theta_i = 0 and 45 degrees (40 000 stratified samples,
+// recorded with the values above; the numbers carry about one standard error of 0.0002 to
+// 0.0009).
 struct ReferenceAlbedo {
   const char* file;
   Color at0, at45;

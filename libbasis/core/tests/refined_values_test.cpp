@@ -95,6 +95,11 @@ TEST(RefinedValues, DerivedBoundsHoldForTheTexels) {
         const PackedTree tree = pack_exact_texels(project(g.grid, {.tolerance = tolerance}), kind);
         ASSERT_TRUE(has_derived_values(tree.shape));
         const QuadrantCheck check = check_derived(tree.view(), g.grid);
+        // Steps and the spike refine no node over all four quadrants: nothing is derived in
+        // them. The other three grids have such nodes at every tolerance (measured 28 to 1,364).
+        if (g.name == "random" || g.name == "smooth" || g.name == "sky") {
+          EXPECT_GE(check.derived_quadrants, 28);
+        }
         if (tolerance == 0 && (g.name == "random" || g.name == "sky")) {
           EXPECT_GT(check.derived_quadrants, 100);
         }

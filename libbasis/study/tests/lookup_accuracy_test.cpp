@@ -4,7 +4,9 @@
 // synthetic map of sharp bright windows on a dark ground, at 32 outgoing directions up to 70
 // degrees that fall between entries. Two errors are asserted:
 //   what the table adds: the lookup against the same capture tree convolved with f tabulated
-//     at wo itself, uncompressed (an independent tabulation, no interpolation);
+//     at wo itself, uncompressed (the same per-texel quadrature and convolution as the table's,
+//     so this isolates the entries' interpolation and compression; it is not independent of
+//     them, the next check is);
 //   the whole result against direct integration over the map's pixels, which adds the 128^2
 //     texels' product and the capture's own compression (README: where each error comes from).
 #include <gtest/gtest.h>
