@@ -145,8 +145,14 @@ CaptureManifest make_manifest(const std::vector<ShardFile>& shards,
       std::filesystem::absolute(std::filesystem::path(manifest_path)).parent_path();
   for (const ShardFile& s : shards) {
     const std::filesystem::path file = std::filesystem::absolute(s.file.name());
-    manifest.shards.push_back({file.lexically_relative(folder).string(), s.file.captures().size(),
-                               s.file.byte_size(), s.xxh128});
+    const std::string listed = file.lexically_relative(folder).string();
+    // A JSON manifest names its shards in UTF-8; another name could not be read back as itself.
+    try {
+      static_cast<void>(nlohmann::json(listed).dump());
+    } catch (const nlohmann::json::type_error&) {
+      throw FileError(s.file.name() + ": a manifest cannot list a file whose name is not UTF-8");
+    }
+    manifest.shards.push_back({listed, s.file.captures().size(), s.file.byte_size(), s.xxh128});
   }
   return manifest;
 }
