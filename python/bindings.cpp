@@ -100,11 +100,11 @@ std::size_t capture_index(const Captures& c, long long k) {
   return std::size_t(k < 0 ? k + n : k);
 }
 
-// A path argument: str, bytes or os.PathLike (os.fspath), without NUL characters (which would
-// cut it short).
+// A path argument: str, bytes or os.PathLike, as the file system's bytes (os.fsencode, so that
+// names that are not UTF-8 pass as they are), without NUL characters (which would cut it short).
 std::string path_of(const py::object& path, const std::string& what) {
-  const py::object p = py::module_::import("os").attr("fspath")(path);
-  const std::string s = p.cast<std::string>();
+  const py::bytes encoded = py::module_::import("os").attr("fsencode")(path);
+  const std::string s = encoded;
   if (s.find('\0') != std::string::npos)
     throw std::invalid_argument(what + " contains a NUL character");
   return s;

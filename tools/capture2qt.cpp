@@ -234,6 +234,8 @@ int main(int argc, char** argv) {
       scene = std::make_unique<basis::EmbreeScene>(*mesh);
     }
     recipe.scene = scene_path;
+    // The provenance can name the inputs (refused before any work otherwise).
+    static_cast<void>(basis::capture_parameters(recipe));
     std::vector<basis::SurfacePoint> points;
     if (int(!at.empty()) + int(!points_path.empty()) + int(sample > 0) != 1)
       throw UsageError("give the points: --at X,Y,Z, --points FILE or --sample N");

@@ -118,7 +118,8 @@ int main(int argc, char** argv) {
     progress.finish();
 
     // Both outputs are made, then written to temporary files, and only then put in place: a
-    // refusal (past 2 GiB) or a failed write of either leaves neither.
+    // refusal (past 2 GiB) or a failed write of either leaves neither (only a failure of the
+    // final renames themselves could leave one).
     nlohmann::ordered_json report = {{"shards", sets.size()}, {"points", points}};
     std::vector<std::byte> joined;
     if (!output.empty()) {

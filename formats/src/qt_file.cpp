@@ -147,8 +147,9 @@ std::string extent_problem(const TreeExtent& e, bool exact_texels) {
   if (!(e.scales.value_scale > 0 && e.scales.value_scale < INFINITY) ||
       !(e.scales.bound_scale > 0 && e.scales.bound_scale < INFINITY))
     return "a tree's scales are not finite positive numbers";
-  // Packing writes a power of two no larger than this; a larger one would decode halves (or
-  // shared-exponent words, or bound codes) to infinity.
+  // Scales packing never writes: a value scale that is not a power of two up to 2^110, a bound
+  // scale above 2^125. Within them every stored half, shared-exponent word and bound code decodes
+  // to a finite float.
   int exponent = 0;
   if (std::frexp(e.scales.value_scale, &exponent) != 0.5f ||
       e.scales.value_scale > kLargestValueScale)
@@ -651,7 +652,11 @@ TreeSetView QtFile::verify_and_pack_float_trees(const void* set_pointer, const s
                        errors.begin() + std::size_t(e.first_node + e.node_count) * shape.channels);
     if (const std::string problem = check_tree(tree.view(), levels, depth); !problem.empty())
       fail(name_, what + ": tree " + std::to_string(i) + ": " + problem);
-    packed.append(pack(tree, BoundKind::linf).view());
+    try {
+      packed.append(pack(tree, BoundKind::linf).view());
+    } catch (const std::overflow_error& e) {
+      fail(name_, what + ": tree " + std::to_string(i) + ": " + e.what());
+    }
   }
   converted_.push_back(std::move(packed));
   return converted_.back().view();

@@ -72,7 +72,16 @@ std::string capture_parameters(const CaptureRecipe& r) {
     j["shard"] = {{"index", r.shard->shard.index},
                   {"count", r.shard->shard.count},
                   {"total_points", r.shard->total_points}};
-  return json_text(j);
+  // The recipe names its inputs so that they can be found again: a name that is not UTF-8
+  // could not be written as itself.
+  for (const std::string& name : {r.environment, r.scene})
+    try {
+      static_cast<void>(nlohmann::json(name).dump());
+    } catch (const nlohmann::json::type_error&) {
+      throw FileError(name +
+                      ": a capture's provenance cannot record a file name that is not UTF-8");
+    }
+  return j.dump();
 }
 
 std::string run_parameters(const std::string& parameters, const std::string& name) {

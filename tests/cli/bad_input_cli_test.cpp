@@ -6,6 +6,7 @@
 #include <sys/stat.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -267,6 +268,15 @@ TEST(BadInputMatrix, FileNamesThatAreNotUtf8StillGiveJson) {
   const auto info = run_tool("qtinfo", {"caf\xe9.qt", "--json"}, dir.path());
   ASSERT_EQ(info.status, 0) << info.err;
   EXPECT_EQ(nlohmann::json::parse(info.out)["kind"], "brdf-table");
+  // A capture's provenance must name its scene as it is: refused before any work, and nothing
+  // written.
+  std::filesystem::copy_file(std::string(BASIS_SOURCE_DIR) + "/data/scene.obj",
+                             dir.file("caf\xe9.obj"));
+  check(dir, "capture2qt",
+        {{"--env-constant", "1,1,1", "--scene", "caf\xe9.obj", "--sample", "4", "--res", "8", "-o",
+          "out.qt"},
+         1,
+         "not UTF-8"});
 }
 
 TEST(BadInputMatrix, UnwritableOutputs) {

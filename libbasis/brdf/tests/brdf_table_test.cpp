@@ -1,7 +1,7 @@
 // BRDF tables against independent numeric integration: directional albedo of every model
 // through the table's lookup, at and between entries, up to 80 degrees; partial and symmetric
 // tabulation against tabulating every entry; the Hermite weights against polynomials they must
-// reproduce; the derivatives over wo against central differences of f integrated over each
+// reproduce; the derivatives over wo against the closed form of Phong's, integrated over each
 // texel (a midpoint rule of the test's own); the
 // lobe width against a closed form; entries folded for a batch of lookups against their own.
 #include <gtest/gtest.h>

@@ -171,6 +171,9 @@ PackedTree pack_tree(const Quadtree& tree, BoundKind bounds, int bounded_groups,
   // Nodes refined over all four quadrants: the values and bounds their children determine, so
   // that files may leave them out (refined_values.h).
   derive_refined_values(out);
+  // Deriving may double the bound scale until the derived bounds code.
+  if (out.scales.bound_scale > kLargestBoundScale)
+    throw std::overflow_error("error bounds of 2^125 (4.3e37) or more cannot be packed");
   return out;
 }
 

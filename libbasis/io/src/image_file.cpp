@@ -152,6 +152,16 @@ void write_images(const std::vector<NamedImage>& images) {
     for (const std::string& temp : written)
       fs::remove(temp, ignored);
   };
+  // A device or a pipe is written in place, as write_image writes it.
+  for (const NamedImage& named : images) {
+    std::error_code error;
+    if (fs::exists(named.path, error) && !fs::is_regular_file(named.path, error) &&
+        !fs::is_directory(named.path, error)) {
+      for (const NamedImage& each : images)
+        write_image(each.path, *each.image);
+      return;
+    }
+  }
   try {
     for (const NamedImage& named : images) {
       std::error_code error;

@@ -53,7 +53,8 @@ struct CaptureRecipe {
 
 // The recipe as the parameters (JSON text) of a capture set's provenance, which
 // capture_recipe reads back. A shard's are the whole run's with "shard": {"index", "count",
-// "total_points"} as the last field.
+// "total_points"} as the last field. Throws FileError naming a map or scene whose name is not
+// UTF-8 (JSON could not record it as itself).
 std::string capture_parameters(const CaptureRecipe& recipe);
 
 // The parameters of the whole run that a shard's parameters (JSON text) belong to: the same text

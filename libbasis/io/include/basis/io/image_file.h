@@ -21,13 +21,18 @@ Image read_image(const std::string& path);
 // 8-bit values clamped to [0,1]). Throws FileError.
 void write_image(const std::string& path, const Image& image);
 
-// Writes several images as one output (a render's EXR and its PNG): each to a temporary file
-// beside its destination, then all put in place, so that when any cannot be written none is,
-// and the files they would replace stay as they were. Throws FileError naming the path.
+// An image and the path it is written to.
 struct NamedImage {
   std::string path;
   const Image* image = nullptr;
 };
+
+// Writes several images as one output (a render's EXR and its PNG): each to a temporary file
+// beside its destination, then all renamed into place, so that when any cannot be written none
+// is put in place and the files they would replace stay as they were (only a failure of the
+// final renames themselves could leave some in place). Destinations that exist and are not
+// regular files (devices, pipes) are written directly, as write_image does. Throws FileError
+// naming the path.
 void write_images(const std::vector<NamedImage>& images);
 
 }  // namespace basis
