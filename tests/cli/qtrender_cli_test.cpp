@@ -110,6 +110,12 @@ TEST(QtrenderCli, BadScenesGetOneLineAndNoImage) {
   EXPECT_FALSE(std::filesystem::exists(dir.file("good.exr")));
   for (const auto& entry : std::filesystem::directory_iterator(dir.path()))
     EXPECT_EQ(entry.path().filename().string().find(".partial"), std::string::npos) << entry.path();
+  // A missing folder is named as the output, not as a temporary.
+  const auto missing = run_tool("qtrender", {dir.file("good.json"), "-o", dir.file("no/such/o.exr"),
+                                             "--method", "mc", "--spp", "1"});
+  EXPECT_EQ(missing.status, 1) << missing.err;
+  EXPECT_NE(missing.err.find("no/such/o.exr: "), std::string::npos) << missing.err;
+  EXPECT_EQ(missing.err.find(".partial"), std::string::npos) << missing.err;
   const auto usage = run_tool("qtrender", {dir.file("nowhere.json"), "-o", dir.file("x.png")});
   EXPECT_EQ(usage.status, 2);
   const auto help = run_tool("qtrender", {"--help"});

@@ -175,7 +175,12 @@ void write_images(const std::vector<NamedImage>& images) {
       name += path.extension().string();
       const std::string temp = (path.parent_path() / name).string();
       written.push_back(temp);
-      write_image(temp, *named.image);
+      try {
+        write_image(temp, *named.image);
+      } catch (const FileError& e) {  // named after the destination, not the temporary
+        const std::string what = e.what();
+        throw FileError(what.rfind(temp, 0) == 0 ? named.path + what.substr(temp.size()) : what);
+      }
     }
     for (std::size_t k = 0; k < images.size(); ++k) {
       std::error_code error;
