@@ -100,6 +100,11 @@ std::size_t capture_index(const Captures& c, long long k) {
   return std::size_t(k < 0 ? k + n : k);
 }
 
+// Capture k's radiance tree (Captures.tree and indexing).
+Tree capture_tree(const Captures& c, long long k) {
+  return Tree{c.owner, c.view.trees.tree(capture_index(c, k))};
+}
+
 // A path argument: str, bytes or os.PathLike, as the file system's bytes (os.fsencode, so that
 // names that are not UTF-8 pass as they are), without NUL characters (which would cut it short).
 std::string path_of(const py::object& path, const std::string& what) {
@@ -420,19 +425,9 @@ PYBIND11_MODULE(basis, m) {
       .def_property_readonly(
           "tangents", [](const Captures& c) { return vectors(c.view.tangents); },
           "The tangents, N x 3 (a copy): each capture's frame has x along its tangent.")
-      .def(
-          "tree",
-          [](const Captures& c, long long k) {
-            return Tree{c.owner, c.view.trees.tree(capture_index(c, k))};
-          },
-          py::arg("k"),
-          "Capture k's radiance tree (negative k counts from the end; IndexError outside).")
-      .def(
-          "__getitem__",
-          [](const Captures& c, long long k) {
-            return Tree{c.owner, c.view.trees.tree(capture_index(c, k))};
-          },
-          py::arg("k"), "Capture k's radiance tree, as tree(k).")
+      .def("tree", &capture_tree, py::arg("k"),
+           "Capture k's radiance tree (negative k counts from the end; IndexError outside).")
+      .def("__getitem__", &capture_tree, py::arg("k"), "Capture k's radiance tree, as tree(k).")
       .def(
           "lights",
           [](const Captures& c, long long k) {

@@ -75,12 +75,9 @@ std::string capture_parameters(const CaptureRecipe& r) {
   // The recipe names its inputs so that they can be found again: a name that is not UTF-8
   // could not be written as itself.
   for (const std::string& name : {r.environment, r.scene})
-    try {
-      static_cast<void>(nlohmann::json(name).dump());
-    } catch (const nlohmann::json::type_error&) {
+    if (!json_holds_exactly(name))
       throw FileError(name +
                       ": a capture's provenance cannot record a file name that is not UTF-8");
-    }
   return j.dump();
 }
 

@@ -15,4 +15,15 @@ std::string json_text(const Json& value, int indent = -1) {
   return value.dump(indent, ' ', false, Json::error_handler_t::replace);
 }
 
+// Whether JSON can hold `text` as itself (it is UTF-8): what files that must name other files
+// exactly (manifests, capture recipes) check before writing.
+inline bool json_holds_exactly(const std::string& text) {
+  try {
+    static_cast<void>(nlohmann::json(text).dump());
+    return true;
+  } catch (const nlohmann::json::type_error&) {
+    return false;
+  }
+}
+
 }  // namespace basis
