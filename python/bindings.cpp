@@ -9,6 +9,7 @@
 
 #include <array>
 #include <cstring>
+#include <functional>
 #include <memory>
 #include <numbers>
 #include <optional>
@@ -376,7 +377,12 @@ PYBIND11_MODULE(basis, m) {
   m.def(
       "convolve",
       [](const Tree& a, const Tree& b, double accuracy, bool bound) {
-        return result(convolve(a.view, b.view, {accuracy, bound}));
+        Convolution c;
+        {
+          py::gil_scoped_release release;
+          c = convolve(a.view, b.view, {accuracy, bound});
+        }
+        return result(c);
       },
       py::arg("a"), py::arg("b"), py::arg("accuracy") = 0.0, py::arg("bound") = true,
       "The integral over the unit square of a * b and its certified bound, as (value, bound) "
@@ -581,7 +587,14 @@ PYBIND11_MODULE(basis, m) {
         options.wo_derivatives = wo_derivatives;
         py::gil_scoped_release release;
         tbb::task_arena arena(arena_threads(threads));
-        BrdfTable table = arena.execute([&] { return tabulate_brdf(b.spec.brdf, options); });
+        BrdfTable table = arena.execute([&] {
+          try {
+            return tabulate_brdf(b.spec.brdf, options);
+          } catch (const std::overflow_error& e) {
+            if (b.source.empty()) throw;
+            throw std::overflow_error(b.source + ": " + e.what());
+          }
+        });
         table.spec = b.spec.text;
         Table out = own(std::move(table), options.projection);
         out.brdf = b.spec.brdf;
@@ -730,21 +743,27 @@ PYBIND11_MODULE(basis, m) {
       "write",
       [](const py::object& path_argument, const py::object& what) {
         const std::string path = path_of(path_argument, "path");
-        std::vector<std::byte> bytes;
+        // Encoding and writing run without the GIL; `what` keeps the object alive meanwhile.
+        std::function<std::vector<std::byte>()> encode;
         if (py::isinstance<Table>(what)) {
           const Table& t = what.cast<const Table&>();
-          bytes = encode_brdf_table(t.view, t.model, t.spec, t.projection,
-                                    python_provenance(t.parameters, t.source));
+          encode = [&t] {
+            return encode_brdf_table(t.view, t.model, t.spec, t.projection,
+                                     python_provenance(t.parameters, t.source));
+          };
         } else if (py::isinstance<Captures>(what)) {
           const Captures& c = what.cast<const Captures&>();
-          bytes = encode_capture_set(c.view, c.projection, captures_provenance(c));
+          encode = [&c] {
+            return encode_capture_set(c.view, c.projection, captures_provenance(c));
+          };
         } else if (py::isinstance<Tree>(what)) {
-          bytes = encode_tree(what.cast<const Tree&>().view, {}, python_provenance());
+          const Tree& t = what.cast<const Tree&>();
+          encode = [&t] { return encode_tree(t.view, {}, python_provenance()); };
         } else {
           throw std::invalid_argument("write takes a Table, Captures or Tree");
         }
         py::gil_scoped_release release;
-        write_qt(path, bytes);
+        write_qt(path, encode());
       },
       py::arg("path"), py::arg("what"),
       "Writes a table, capture set or tree as a .qt file (atomically; verified as the reader "

@@ -7,6 +7,7 @@
 
 #include "basis/brdf/brdf_spec.h"
 #include "basis/brdf/brdf_table.h"
+#include "basis/core/file_error.h"
 #include "basis/core/projection.h"
 #include "basis/core/version.h"
 #include "basis/format/qt_file.h"
@@ -92,8 +93,13 @@ int main(int argc, char** argv) {
     const auto arena = basis::cli::thread_arena(threads);
     basis::cli::ProgressBar progress("brdf2qt", quiet);
     const auto start = std::chrono::steady_clock::now();
-    const basis::BrdfTable table = arena->execute(
-        [&] { return basis::tabulate_brdf(spec.brdf, options, progress.control()); });
+    const basis::BrdfTable table = arena->execute([&] {
+      try {
+        return basis::tabulate_brdf(spec.brdf, options, progress.control());
+      } catch (const std::overflow_error& e) {
+        throw basis::FileError(spec_path + ": " + e.what());
+      }
+    });
     progress.finish();
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -345,7 +345,7 @@ int main(int argc, char** argv) {
 
     Output out(output);
     const bool single = total == 1 && !has_table && !json && !csv;
-    // Written once the first block has checked its inputs, so that an error prints nothing.
+    // Written once the first block's results are computed, so that an error prints nothing.
     const auto write_header = [&] {
       const std::string title =
           std::string(has_table ? "reflected radiance at each capture" : "integral at each point") +
@@ -380,13 +380,9 @@ int main(int argc, char** argv) {
         dense_products.emplace(blk.a, blk.b, shading, light_brdf, basis::Evaluation::dense,
                                blk.ranges);
       const basis::FileConvolution& convolution = dense ? *dense_products : trees;
-      if (first_block) {
-        write_header();
-        // Always said, -q or not: the lights lose accuracy (see --lights).
-        if (!convolution.warning().empty())
-          std::fprintf(stderr, "qtconvolve: warning: %s\n", convolution.warning().c_str());
-      }
-
+      // Always said, -q or not: the lights lose accuracy (see --lights).
+      if (first_block && !convolution.warning().empty())
+        std::fprintf(stderr, "qtconvolve: warning: %s\n", convolution.warning().c_str());
       std::vector<Row> rows(convolution.size());
       for (std::size_t k = 0; k < rows.size(); ++k) {
         rows[k].index = blk.first + k;
@@ -421,6 +417,10 @@ int main(int argc, char** argv) {
         for (const Row& row : rows)
           values.push_back(row.result.value);
       }
+      // The header follows the first block's results and references: a capture that cannot
+      // be shaded (a tilt past 90 degrees) or a reference whose inputs are gone stops the run
+      // with nothing printed.
+      if (first_block) write_header();
       std::string text;
       for (const Row& row : rows) {
         if (json)

@@ -151,6 +151,9 @@ int main(int argc, char** argv) {
                                std::to_string(reference.channels) +
                                " channels, the scene renders " + std::to_string(file.camera.width) +
                                " x " + std::to_string(file.camera.height) + " RGB");
+      if (const std::size_t invalid = basis::non_finite_rgb_values(reference); invalid > 0)
+        throw basis::FileError(compare + ": " + std::to_string(invalid) +
+                               " NaN or infinite RGB values; a reference must be finite");
     }
     const auto arena = basis::cli::thread_arena(threads);
     basis::SceneLoadOptions load;

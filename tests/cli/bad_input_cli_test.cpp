@@ -86,6 +86,12 @@ void write_inputs(const TempDir& dir) {
   for (float& p : huge.pixels)
     p = 3e38f;
   write_image(dir.file("huge.exr"), huge);
+  // A map of one pixel (a lat-long map needs two columns) and an OBJ whose material emits
+  // more than a float holds.
+  write_image(dir.file("one_pixel.exr"), Image(1, 1, 3));
+  write_text(dir.file("bright.mtl"), "newmtl glow\nKe 1e39 1e39 1e39\n");
+  write_text(dir.file("bright.obj"),
+             "mtllib bright.mtl\nv 0 0 1\nv 1 0 1\nv 0 1 1\nusemtl glow\nf 1 2 3\n");
   std::filesystem::create_directories(dir.file("folder"));
   // A .qt file of a future format version, otherwise well formed.
   const QtFile ok = QtFile::load(dir.file("ok.qt"));
@@ -147,6 +153,17 @@ TEST(BadInputMatrix, Specs) {
   check(dir, "brdf2qt", {{"negative.json", "-o", "out.qt"}, 1, "field 'ks'"});
   check(dir, "brdf2qt", {{"missing_field.json", "-o", "out.qt"}, 1, "field 'alpha'"});
   check(dir, "brdf2qt", {{"unknown.json", "-o", "out.qt"}, 1, "unknown model 'cook-torrance'"});
+  // A MERL file of finite samples too large for a table's floats: refused by name.
+  {
+    std::ofstream merl(dir.file("huge.binary"), std::ios::binary);
+    const std::int32_t dims[3] = {90, 90, 180};
+    merl.write(reinterpret_cast<const char*>(dims), sizeof dims);
+    const std::vector<double> samples(3 * 90 * 90 * 180, 1e300);
+    merl.write(reinterpret_cast<const char*>(samples.data()),
+               std::streamsize(samples.size() * sizeof(double)));
+  }
+  write_text(dir.file("huge_merl.json"), R"({"model": "merl", "file": "huge.binary"})");
+  check(dir, "brdf2qt", {{"huge_merl.json", "-o", "out.qt"}, 1, "huge.binary: MERL samples"});
 }
 
 TEST(BadInputMatrix, CaptureInputs) {
@@ -168,6 +185,12 @@ TEST(BadInputMatrix, CaptureInputs) {
   check(
       dir, "capture2qt",
       {{"--env-constant", "1e39,1,1", "--at", "0,0,0", "-o", "out.qt"}, 2, "--env-constant 1e39"});
+  check(dir, "capture2qt",
+        {{"--env", "one_pixel.exr", "--at", "0,0,0", "-o", "out.qt"}, 1, "one_pixel.exr: "});
+  check(dir, "capture2qt",
+        {{"--env-constant", "1,1,1", "--scene", "bright.obj", "--at", "0.2,0.2,0", "-o", "out.qt"},
+         1,
+         "bright.obj: material 'glow'"});
   for (const std::string name :
        {"missing.obj", "empty.obj", "truncated.obj", "foreign.obj", "folder"})
     check(dir, "capture2qt",

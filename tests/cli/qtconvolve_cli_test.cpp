@@ -301,12 +301,48 @@ TEST(QtconvolveCli, TimingKeepsTheResultsAndReportsBothSides) {
     }
 }
 
-TEST(QtconvolveCli, MismatchedInputsAreClearErrors) {
-  TempDir dir;
+// In dir: l.qt, a table of Lambert 0.5 at 3^2 directions, 8^2 texels an entry.
+void make_lambert_table(const TempDir& dir) {
   std::ofstream(dir.file("l.json")) << R"({"model": "lambert", "albedo": 0.5})";
   ASSERT_EQ(
       run_tool("brdf2qt", {"l.json", "--wo-res", "3", "--wi-res", "8", "-q"}, dir.path()).status,
       0);
+}
+
+// A capture set records its map as capture2qt was given it; --reference re-reads it. From a
+// folder where that relative path leads nowhere: one line naming the captures and the map, no
+// header or results; from the folder it was captured in, the reference is computed.
+TEST(QtconvolveCli, AReferenceWhoseMapIsGoneNamesIt) {
+  TempDir dir;
+  make_lambert_table(dir);
+  if (::testing::Test::HasFatalFailure()) return;
+  Image map(16, 8, 3);
+  for (float& p : map.pixels)
+    p = 1;
+  write_image(dir.file("flat.exr"), map);
+  ASSERT_EQ(
+      run_tool("capture2qt",
+               {"--env", "flat.exr", "--at", "0,0,0", "--res", "8", "-o", "c.qt", "-q"}, dir.path())
+          .status,
+      0);
+  std::filesystem::create_directories(dir.file("elsewhere"));
+  const auto gone =
+      run_tool("qtconvolve", {"../l.qt", "../c.qt", "--reference", "-q"}, dir.file("elsewhere"));
+  EXPECT_EQ(gone.status, 1) << gone.err;
+  EXPECT_EQ(testing::line_count(gone.err), 1) << gone.err;
+  EXPECT_NE(gone.err.find("../c.qt: cannot open what it was captured from (flat.exr"),
+            std::string::npos)
+      << gone.err;
+  EXPECT_EQ(gone.out, "");
+  const auto here = convolve_json(dir, {"l.qt", "c.qt", "--reference"});
+  // Lambert 0.5 under a unit sky reflects 0.5; the reference is computed in floats.
+  EXPECT_NEAR(here["results"][0]["reference"][0].get<double>(), 0.5, 1e-5);
+}
+
+TEST(QtconvolveCli, MismatchedInputsAreClearErrors) {
+  TempDir dir;
+  make_lambert_table(dir);
+  if (::testing::Test::HasFatalFailure()) return;
   ASSERT_EQ(
       run_tool("capture2qt",
                {"--env-constant", "1,1,1", "--at", "0,0,0", "--res", "8", "-o", "one.qt", "-q"},
@@ -356,11 +392,15 @@ TEST(QtconvolveCli, MismatchedInputsAreClearErrors) {
                                          {{"one.qt", "one.qt", "--wo", "0,1,1"}, 2},
                                          {{"l.qt", "one.qt", "--json", "--csv"}, 2},
                                          {{"l.qt", "one.qt", "--no-bound", "--accuracy", "0.1"}, 2},
+                                         // A capture tilted past 90 degrees: found while
+                                         // shading, before any output.
+                                         {{"l.qt", "one.qt", "--normal", "0,0.2,-1"}, 1},
                                          {{"l.qt", "missing.qt"}, 1},
                                          {{"l.qt"}, 2}}) {
     const auto r = run_tool("qtconvolve", k.args, dir.path());
     EXPECT_EQ(r.status, k.status) << k.args[0] << " " << (k.args.size() > 1 ? k.args[1] : "");
     EXPECT_EQ(testing::line_count(r.err), 1) << r.err;
+    EXPECT_EQ(r.out, "") << k.args[0];  // an error prints no header and no results
   }
 }
 

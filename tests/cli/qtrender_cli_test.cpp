@@ -2,6 +2,7 @@
 // naming the file and no image.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -121,6 +122,49 @@ TEST(QtrenderCli, BadScenesGetOneLineAndNoImage) {
   const auto help = run_tool("qtrender", {"--help"});
   EXPECT_EQ(help.status, 0);
   EXPECT_NE(help.out.find("radiance cache"), std::string::npos);
+}
+
+// Radiance near the largest float, a map of one pixel and a reference with NaN: one line that
+// names the file, and no image (never one with infinities).
+TEST(QtrenderCli, LightsBeyondFloatsAndBadReferencesNameTheirFile) {
+  TempDir dir;
+  write_text(dir.file("m.json"), R"({"model": "lambert", "albedo": 0.5})");
+  // Under a constant 3e38 the records' error bounds overflow; so do some of Monte Carlo's
+  // samples of the paper's BRDF (f cos / pdf above 1), at one sample per pixel.
+  write_text(dir.file("p.json"), R"({"model": "phong", "kd": 0.5, "ks": 0.4, "exponent": 100})");
+  for (const std::string material : {"m", "p"})
+    write_text(dir.file("bright_" + material + ".json"), R"({"camera": )" + kCamera + R"(,
+      "environment": {"constant": [3e38, 3e38, 3e38]},
+      "meshes": [{"obj": ")" + std::string(BASIS_SOURCE_DIR) +
+                                                             R"(/data/scene.obj", "material": ")" +
+                                                             material + R"(.json"}]})");
+  write_image(dir.file("one_pixel.exr"), Image(1, 1, 3));
+  write_text(dir.file("dot.json"), R"({"camera": )" + kCamera + R"(,
+    "environment": {"map": "one_pixel.exr"}, "meshes": [{"obj": "x.obj", "material": "m.json"}]})");
+  write_text(dir.file("good.json"), scene_text(kCamera, "m.json"));
+  Image reference(24, 18, 3);
+  reference.at(3, 4, 1) = std::nanf("");
+  write_image(dir.file("nan_reference.exr"), reference);
+  struct Case {
+    std::vector<std::string> args;
+    std::string named;
+  };
+  for (const Case& k : std::vector<Case>{
+           {{"bright_p.json", "--method", "mc", "--spp", "1"}, "bright_p.json: "},
+           {{"bright_m.json", "--method", "cache"}, "bright_m.json: "},
+           {{"dot.json", "--method", "mc"}, "one_pixel.exr: "},
+           {{"good.json", "--method", "mc", "--compare", dir.file("nan_reference.exr")},
+            "nan_reference.exr: 1 NaN"}}) {
+    std::vector<std::string> args = k.args;
+    args[0] = dir.file(args[0]);
+    args.insert(args.end(), {"-o", dir.file("out.exr"), "-q"});
+    const auto r = run_tool("qtrender", args);
+    EXPECT_EQ(r.status, 1) << k.args[0] << ": " << r.err;
+    EXPECT_EQ(line_count(r.err), 1) << k.args[0] << ": " << r.err;
+    EXPECT_NE(r.err.find(k.named), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir.file("out.exr"))) << k.args[0];
+    EXPECT_FALSE(std::filesystem::exists(dir.file("out.png"))) << k.args[0];
+  }
 }
 
 TEST(QtrenderCli, AnInterruptedRenderWritesNothing) {

@@ -19,6 +19,12 @@ Color mix(const Color& diffuse, double diffuse_scale, const Color& specular,
           diffuse[2] * diffuse_scale + specular[2] * specular_scale};
 }
 
+// The unit half vector. Stable: near the horizon, with wi and wo almost opposite, |wi + wo|^2
+// underflows and a plain normalisation would leave the sum unnormalised.
+Vec3 half_vector(const Vec3& wi, const Vec3& wo) {
+  return (wi + wo).stableNormalized();
+}
+
 bool grey(const Color& c) {
   return c[0] == c[1] && c[1] == c[2];
 }
@@ -37,32 +43,33 @@ struct Evaluator {
   }
 
   Color operator()(const BlinnPhong& m) const {
-    const Vec3 h = (wi + wo).normalized();
+    const Vec3 h = half_vector(wi, wo);
     const double lobe =
         (m.exponent + 8) / (8 * std::numbers::pi) * std::pow(std::max(0.0, h.z()), m.exponent);
     return mix(m.kd, kInvPi, m.ks, lobe);
   }
 
   Color operator()(const Ward& m) const {
-    const Vec3 h = (wi + wo).normalized();
+    const Vec3 h = half_vector(wi, wo);
     const double cos2 = h.z() * h.z();
     const double tan2 = (1 - cos2) / cos2;
     const double a2 = m.alpha * m.alpha;
+    // sqrt(wi.z) sqrt(wo.z), not sqrt(wi.z wo.z): the product underflows to 0 near the horizon.
     const double lobe =
-        std::exp(-tan2 / a2) / (4 * std::numbers::pi * a2 * std::sqrt(wi.z() * wo.z()));
+        std::exp(-tan2 / a2) / (4 * std::numbers::pi * a2 * std::sqrt(wi.z()) * std::sqrt(wo.z()));
     return mix(m.kd, kInvPi, m.ks, lobe);
   }
 
   Color operator()(const Ggx& m) const {
-    const Vec3 h = (wi + wo).normalized();
+    const Vec3 h = half_vector(wi, wo);
     const double a2 = m.alpha * m.alpha;
     const double d_denominator = h.z() * h.z() * (a2 - 1) + 1;
     const double d = a2 / (std::numbers::pi * d_denominator * d_denominator);
-    auto g1 = [a2](double z) { return 2 * z / (z + std::sqrt(a2 + (1 - a2) * z * z)); };
-    const double g = g1(wi.z()) * g1(wo.z());
+    // Smith's G1(z) / z, kept apart so that G / (4 wi.z wo.z) has no 0 / 0 near the horizon.
+    auto g1_over_z = [a2](double z) { return 2 / (z + std::sqrt(a2 + (1 - a2) * z * z)); };
     const double x = 1 - std::clamp(wi.dot(h), 0.0, 1.0), x2 = x * x;
     const double schlick = x2 * x2 * x;  // (1 - wi.h)^5, without the cost of pow
-    const double common = d * g / (4 * wi.z() * wo.z());
+    const double common = d * g1_over_z(wi.z()) * g1_over_z(wo.z()) / 4;
     Color f;
     for (int c = 0; c < 3; ++c)
       f[c] = m.kd[c] * kInvPi + common * (m.f0[c] + (1 - m.f0[c]) * schlick);

@@ -5,11 +5,14 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <random>
 #include <stdexcept>
+#include <string>
 
 #include "basis/brdf/tilt_derivative.h"
+#include "basis/core/grid.h"
 #include "basis/core/hemisphere.h"
 #include "basis/core/parabolic.h"
 #include "basis/core/projection.h"
@@ -271,6 +274,13 @@ BrdfTable tabulate_brdf(const Brdf& brdf, const BrdfTableOptions& options,
       tilt_projection.max_depth = 0;
       tilt_projection.cut_on_all_groups = true;
       tilt_projection.group_tolerance_scale = 1;
+    }
+    if (!all_finite(base.texels) || !all_finite(tilt_base.texels)) {
+      char where[96];
+      std::snprintf(where, sizeof where, "(%.4g, %.4g, %.4g)", wo.x(), wo.y(), wo.z());
+      throw std::overflow_error(std::string("the BRDF's values at wo = ") + where +
+                                ", or their derivatives, are not finite or overflow float "
+                                "(largest 3.4e38)");
     }
     QuadtreeProjector projector;
     const GridVector derivatives = options.wo_derivatives ? GridVector{1, false} : GridVector{};

@@ -16,6 +16,8 @@ namespace {
 
 constexpr std::size_t kChannelSize =
     std::size_t(MerlBrdf::kThetaH) * MerlBrdf::kThetaD * MerlBrdf::kPhiD;
+// Measured reflectances stay far below this; a table stores f times the scales in floats.
+constexpr double kLargestSample = 1e30;
 constexpr std::size_t kFileBytes = 3 * sizeof(std::int32_t) + 3 * kChannelSize * sizeof(double);
 
 // Rodrigues' rotation of v about a unit axis.
@@ -62,8 +64,11 @@ std::shared_ptr<const MerlBrdf> MerlBrdf::parse(std::span<const unsigned char> b
     throw FileError(name + ": longer than a MERL file (" + std::to_string(kFileBytes) + " bytes)");
   std::vector<double> samples(3 * kChannelSize);
   std::memcpy(samples.data(), bytes.data() + sizeof dims, samples.size() * sizeof(double));
-  for (double s : samples)
+  for (double s : samples) {
     if (!std::isfinite(s)) throw FileError(name + ": MERL samples hold NaN or infinity");
+    if (s > kLargestSample)
+      throw FileError(name + ": MERL samples above 1e30, beyond what a table of floats holds");
+  }
   return std::make_shared<const MerlBrdf>(std::move(samples));
 }
 

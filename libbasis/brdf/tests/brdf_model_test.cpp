@@ -2,9 +2,11 @@
 // name the file, line and field, and a MERL file written here from an analytic BRDF.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
 #include <numbers>
 #include <random>
+#include <variant>
 
 #include "basis/brdf/brdf_spec.h"
 #include "basis/brdf/merl.h"
@@ -41,6 +43,36 @@ TEST(BrdfModels, AreReciprocalAndNonNegative) {
         EXPECT_NEAR(a[ch], c[ch], 1e-9 * (1 + a[ch])) << model_name(b);
       }
       EXPECT_EQ(evaluate(b, Vec3(wi.x(), wi.y(), -wi.z()), wo)[0], 0);
+    }
+}
+
+TEST(BrdfModels, StayFiniteAndContinuousAtTheHorizon) {
+  // Near the horizon GGX tends to a finite limit (G1(z) / z tends to 2 / alpha) and Ward grows
+  // as 1 / sqrt(wi.z wo.z). At z = 1e-200 the products wi.z wo.z underflow to 0; the values
+  // must still be those the models tend to, checked at z = 1e-12, where nothing underflows.
+  // Azimuths as (cos, sin), the last exactly opposite wi's (the mirror direction, h at the
+  // normal), which sin(pi) would miss by 1e-16, far more than 1e-200.
+  const std::pair<double, double> azimuths[] = {{0.8, 0.6}, {-0.6, 0.8}, {-0.96, 0.28}, {-1, 0}};
+  const auto direction = [](std::pair<double, double> azimuth, double z) {
+    const double r = std::sqrt(1 - z * z);
+    return Vec3(r * azimuth.first, r * azimuth.second, z);
+  };
+  for (const Brdf& b : analytic_models())
+    for (const auto& [cos_azimuth, sin_azimuth] : azimuths) {
+      const double near = 1e-12, nearer = 1e-200;
+      const Color a =
+          evaluate(b, direction({1, 0}, near), direction({cos_azimuth, sin_azimuth}, near));
+      Color c =
+          evaluate(b, direction({1, 0}, nearer), direction({cos_azimuth, sin_azimuth}, nearer));
+      for (int ch = 0; ch < 3; ++ch) {
+        ASSERT_TRUE(std::isfinite(c[ch])) << model_name(b) << " " << cos_azimuth;
+        // Ward's lobe brought to the scale of z = 1e-12 (its diffuse term does not grow).
+        if (const Ward* ward = std::get_if<Ward>(&b)) {
+          const double diffuse = ward->kd[ch] / std::numbers::pi;
+          c[ch] = diffuse + (c[ch] - diffuse) * (nearer / near);
+        }
+        EXPECT_NEAR(c[ch], a[ch], 1e-6 * (1 + a[ch])) << model_name(b) << " " << cos_azimuth;
+      }
     }
 }
 
@@ -167,6 +199,23 @@ void write_merl(const std::string& path, const Brdf& brdf, bool mark_missing = f
   const std::int32_t dims[3] = {nh, nd, np};
   out.write(reinterpret_cast<const char*>(dims), sizeof dims);
   out.write(reinterpret_cast<const char*>(samples.data()), std::streamsize(samples.size() * 8));
+}
+
+// A BRDF whose values are finite doubles beyond the float range (made in memory: the MERL
+// reader refuses such files) stops tabulation with an error that names the direction.
+TEST(MerlBrdf, ValuesBeyondFloatsStopTabulationNamingWo) {
+  const Brdf huge = std::make_shared<const MerlBrdf>(std::vector<double>(
+      3 * std::size_t(MerlBrdf::kThetaH) * MerlBrdf::kThetaD * MerlBrdf::kPhiD, 1e300));
+  BrdfTableOptions options;
+  options.wo_resolution = 2;
+  options.wi_resolution = 4;
+  try {
+    tabulate_brdf(huge, options);
+    FAIL() << "tabulated";
+  } catch (const std::overflow_error& e) {
+    EXPECT_NE(std::string(e.what()).find("the BRDF's values at wo = ("), std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(MerlBrdf, FileFromAnalyticBrdfReproducesItsAlbedo) {

@@ -157,6 +157,13 @@ TriangleMesh read_obj(const std::string& path) {
   }
   const bool has_normals = normal_count > 0;
   const auto& materials = reader.GetMaterials();
+  // Emission past kLargestEmission would overflow the captures' float texels. (The reader
+  // takes a Ke it cannot parse, such as nan, as 0.)
+  for (const tinyobj::material_t& material : materials)
+    for (const float e : material.emission)
+      if (!(std::abs(e) <= kLargestEmission))
+        throw FileError(path + ": material '" + material.name +
+                        "': emission Ke is infinite or beyond 1e30");
   for (const tinyobj::shape_t& shape : reader.GetShapes()) {
     const auto& indices = shape.mesh.indices;
     for (std::size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f) {

@@ -6,6 +6,15 @@
 
 namespace basis {
 
+std::size_t non_finite_rgb_values(const Image& image) {
+  std::size_t count = 0;
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x)
+      for (int c = 0; c < std::min(3, image.channels); ++c)
+        count += !std::isfinite(image.at(x, y, c));
+  return count;
+}
+
 ImageErrors compare_images(const Image& image, const Image& reference,
                            std::span<const std::uint8_t> covered) {
   if (image.width != reference.width || image.height != reference.height)

@@ -2,10 +2,12 @@
 
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 
+#include "basis/core/file_error.h"
 #include "basis/core/random.h"
 #include "basis/render/direct_lighting.h"
 
@@ -195,12 +197,24 @@ RenderResult render(const RenderScene& scene, const RenderOptions& options,
   const auto start = Clock::now();
   RenderResult result;
   const bool cached = options.method != RenderMethod::monte_carlo;
-  const Primary primary = primary_pass(scene, cached, result, control);
-  result.timings.primary = since(start);
-  if (cached)
-    render_cache(scene, options, primary, result, control);
-  else
-    render_monte_carlo(scene, options, primary, start, result, control);
+  // Radiance near the largest float overflows in the records or the pixels: one error that
+  // names the scene and its light, never an image with infinities.
+  const auto too_bright = [&](const char* what) {
+    return FileError(scene.file.path + ": " + scene.environment->name() +
+                     ": radiance too large to render: " + what);
+  };
+  try {
+    const Primary primary = primary_pass(scene, cached, result, control);
+    result.timings.primary = since(start);
+    if (cached)
+      render_cache(scene, options, primary, result, control);
+    else
+      render_monte_carlo(scene, options, primary, start, result, control);
+  } catch (const std::overflow_error& e) {
+    throw too_bright(e.what());
+  }
+  if (!std::ranges::all_of(result.image.pixels, [](float v) { return std::isfinite(v); }))
+    throw too_bright("pixels overflow float (largest 3.4e38)");
   result.timings.total = since(start);
   return result;
 }

@@ -53,7 +53,15 @@ std::vector<Rgb> reference_lookups(const QtFile& table_file, const QtFile& captu
     throw std::invalid_argument("a reference needs the table and the captures at one resolution (" +
                                 std::to_string(table.trees.shape().resolution) + " and " +
                                 std::to_string(recipe.options.resolution) + ")");
-  const CaptureInputs inputs = open_capture_inputs(recipe);
+  const CaptureInputs inputs = [&] {
+    try {
+      return open_capture_inputs(recipe);
+    } catch (const FileError& e) {
+      // Recorded paths are as capture2qt was given them: relative ones from its folder.
+      throw FileError(captures_file.name() + ": cannot open what it was captured from (" +
+                      e.what() + "); relative paths are read from the current folder");
+    }
+  }();
   // The entries around wo re-tabulated (with their derivatives over wo when the table has
   // them), each combined as the lookup weighs its groups.
   BrdfTableOptions options;

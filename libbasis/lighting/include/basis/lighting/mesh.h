@@ -45,6 +45,8 @@ struct TriangleMesh {
 // Largest mesh accepted (checked while reading) and largest OBJ file (checked before).
 inline constexpr std::size_t kMaxTriangles = std::size_t(1) << 28;
 inline constexpr std::uintmax_t kMaxObjBytes = std::uintmax_t(4) << 30;
+// The largest emission (Ke) a material may have: captures average radiance in floats.
+inline constexpr double kLargestEmission = 1e30;
 
 // Reads an OBJ file (and its MTL materials) with tinyobjloader; polygons are triangulated.
 // Throws FileError for unreadable files, NaN or infinite vertices, indices out of range, or a

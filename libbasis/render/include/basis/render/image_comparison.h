@@ -20,6 +20,10 @@ struct ImageErrors {
   std::size_t pixels = 0;
 };
 
+// How many of the image's red, green and blue values are NaN or infinite (a reference must
+// have none: its errors would be NaN).
+std::size_t non_finite_rgb_values(const Image& image);
+
 // Throws std::invalid_argument unless the images have one size, three channels or more and the
 // mask one entry per pixel.
 ImageErrors compare_images(const Image& image, const Image& reference,
