@@ -5,6 +5,7 @@
 #include <numbers>
 
 #include "basis/brdf/measured.h"
+#include "basis/core/hemisphere.h"
 
 namespace basis {
 
@@ -17,12 +18,6 @@ Color mix(const Color& diffuse, double diffuse_scale, const Color& specular,
   return {diffuse[0] * diffuse_scale + specular[0] * specular_scale,
           diffuse[1] * diffuse_scale + specular[1] * specular_scale,
           diffuse[2] * diffuse_scale + specular[2] * specular_scale};
-}
-
-// The unit half vector. Stable: near the horizon, with wi and wo almost opposite, |wi + wo|^2
-// underflows and a plain normalisation would leave the sum unnormalised.
-Vec3 half_vector(const Vec3& wi, const Vec3& wo) {
-  return (wi + wo).stableNormalized();
 }
 
 bool grey(const Color& c) {

@@ -9,6 +9,7 @@
 #include <numbers>
 
 #include "basis/core/file_error.h"
+#include "basis/core/hemisphere.h"
 
 namespace basis {
 
@@ -73,7 +74,7 @@ std::shared_ptr<const MerlBrdf> MerlBrdf::parse(std::span<const unsigned char> b
 }
 
 MerlBrdf::HalfDiff MerlBrdf::to_half_diff(const Vec3& wi, const Vec3& wo) {
-  const Vec3 h = (wi + wo).normalized();
+  const Vec3 h = half_vector(wi, wo);
   const double theta_h = std::acos(std::clamp(h.z(), -1.0, 1.0));
   const double phi_h = std::atan2(h.y(), h.x());
   const Vec3 d = rotate(rotate(wi, Vec3::UnitZ(), -phi_h), Vec3::UnitY(), -theta_h);

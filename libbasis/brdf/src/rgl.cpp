@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "basis/core/hemisphere.h"
 #include "tensor_file.h"
 #include "warp2d.h"
 
@@ -242,7 +243,7 @@ std::string RglBrdf::description() const {
 Color RglBrdf::evaluate_cosine(const Vec3& wi_in, const Vec3& wo_in) const {
   if (!above_horizon(wi_in) || !above_horizon(wo_in)) return {0, 0, 0};
   const Vec3 wi = wi_in.normalized(), wo = wo_in.normalized();
-  const Vec3 wm = (wi + wo).normalized();
+  const Vec3 wm = half_vector(wi, wo);
   const Incident in = incident(wi);
   const Vec2 um = half_vector_u(wm, in.phi);
   const Vec2 s = tables_->vndf.invert(um, in.params).pos;
@@ -265,7 +266,7 @@ Color RglBrdf::evaluate(const Vec3& wi, const Vec3& wo) const {
 double RglBrdf::pdf(const Vec3& wi_in, const Vec3& wo_in) const {
   if (!above_horizon(wi_in) || !above_horizon(wo_in)) return 0;
   const Vec3 wi = wi_in.normalized(), wo = wo_in.normalized();
-  const Vec3 wm = (wi + wo).normalized();
+  const Vec3 wm = half_vector(wi, wo);
   const Incident in = incident(wi);
   const Vec2 um = half_vector_u(wm, in.phi);
   const Warp2D::Point p = tables_->vndf.invert(um, in.params);

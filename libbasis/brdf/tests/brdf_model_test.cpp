@@ -201,6 +201,23 @@ void write_merl(const std::string& path, const Brdf& brdf, bool mark_missing = f
   out.write(reinterpret_cast<const char*>(samples.data()), std::streamsize(samples.size() * 8));
 }
 
+// The half vector of a MERL lookup near the horizon: wi and wo at z = 1e-200 on opposite sides
+// (the mirror direction, h at the normal) read the bins they read at z = 1e-12, where |wi + wo|^2
+// does not underflow.
+TEST(MerlBrdf, HalfVectorHoldsAtTheHorizon) {
+  TempDir dir;
+  write_merl(dir.file("lobe.binary"), BlinnPhong{{0.1, 0.1, 0.1}, {0.8, 0.8, 0.8}, 40});
+  const auto merl = MerlBrdf::read(dir.file("lobe.binary"));
+  const auto pair = [&](double z) {
+    const double r = std::sqrt(1 - z * z);
+    return merl->evaluate(Vec3(r, 0, z), Vec3(-r, 0, z));
+  };
+  const Color near = pair(1e-12), nearer = pair(1e-200);
+  EXPECT_GT(near[0], 1.0);  // the lobe's peak, not its tail
+  for (int c = 0; c < 3; ++c)
+    EXPECT_EQ(nearer[c], near[c]) << c;
+}
+
 // A BRDF whose values are finite doubles beyond the float range (made in memory: the MERL
 // reader refuses such files) stops tabulation with an error that names the direction.
 TEST(MerlBrdf, ValuesBeyondFloatsStopTabulationNamingWo) {

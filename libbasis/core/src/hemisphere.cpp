@@ -50,4 +50,8 @@ double square_to_uniform_hemisphere_pdf() {
   return 1 / (2 * std::numbers::pi);
 }
 
+Vec3 half_vector(const Vec3& wi, const Vec3& wo) {
+  return (wi + wo).stableNormalized();
+}
+
 }  // namespace basis

@@ -27,4 +27,8 @@ Vec2 uniform_hemisphere_to_square(const Vec3& w);
 // Density of square_to_uniform_hemisphere with respect to solid angle: 1 / (2 pi).
 double square_to_uniform_hemisphere_pdf();
 
+// The unit half vector (wi + wo) / |wi + wo| of unit directions that are not opposite. Scaled
+// before normalising: near the horizon, with wi and wo almost opposite, |wi + wo|^2 underflows.
+Vec3 half_vector(const Vec3& wi, const Vec3& wo);
+
 }  // namespace basis
