@@ -380,13 +380,17 @@ int main(int argc, char** argv) {
         dense_products.emplace(blk.a, blk.b, shading, light_brdf, basis::Evaluation::dense,
                                blk.ranges);
       const basis::FileConvolution& convolution = dense ? *dense_products : trees;
-      // Always said, -q or not: the lights lose accuracy (see --lights).
-      if (first_block && !convolution.warning().empty())
-        std::fprintf(stderr, "qtconvolve: warning: %s\n", convolution.warning().c_str());
       std::vector<Row> rows(convolution.size());
       for (std::size_t k = 0; k < rows.size(); ++k) {
         rows[k].index = blk.first + k;
-        rows[k].result = convolution(k);
+        try {
+          rows[k].result = convolution(k);
+        } catch (const std::invalid_argument& e) {  // a capture tilted past 90 degrees
+          if (!shading.normal) throw;
+          throw basis::FileError(convolution.shaded().name() + ": capture " +
+                                 std::to_string(rows[k].index) + " under --normal " + normal_text +
+                                 ": " + e.what());
+        }
         rows[k].bound = !no_bound;
       }
       // Each block is timed for at least 0.1 s: a long run is timed on its first blocks.
@@ -420,7 +424,12 @@ int main(int argc, char** argv) {
       // The header follows the first block's results and references: a capture that cannot
       // be shaded (a tilt past 90 degrees) or a reference whose inputs are gone stops the run
       // with nothing printed.
-      if (first_block) write_header();
+      if (first_block) {
+        write_header();
+        // Always said, -q or not: the lights lose accuracy (see --lights).
+        if (!convolution.warning().empty())
+          std::fprintf(stderr, "qtconvolve: warning: %s\n", convolution.warning().c_str());
+      }
       std::string text;
       for (const Row& row : rows) {
         if (json)

@@ -19,7 +19,8 @@ DTYPES = {1: np.uint8, 2: np.int8, 3: np.uint16, 4: np.int16, 5: np.uint32, 6: n
 def read_tensor_file(path):
     """The named arrays of a tensor_file: a 12-byte magic, a version (two bytes), a field count,
     then per field its name, rank, dtype code, byte offset and shape, all little-endian."""
-    data = open(path, "rb").read()
+    with open(path, "rb") as file:
+        data = file.read()
     if data[:12] != b"tensor_file\0":
         raise ValueError(f"{path}: not a tensor_file")
     (count,) = struct.unpack_from("<I", data, 14)
@@ -136,7 +137,10 @@ class RglBrdf:
         f = read_tensor_file(path)
         phi_i = f["phi_i"].astype(np.float64)
         theta_i = f["theta_i"].astype(np.float64)
-        self.isotropic = len(phi_i) == 1
+        if len(phi_i) != 1:
+            raise NotImplementedError(f"{path}: only isotropic files (one phi_i) are implemented")
+        # jacobian set: the tables hold rgb, the value is rgb D / (4 sigma); else rgb alone.
+        self.jacobian = bool(f["jacobian"][0])
         incident = [phi_i, theta_i]
         self.ndf = Table2D(f["ndf"], [])
         self.sigma = Table2D(f["sigma"], [])
@@ -151,11 +155,11 @@ class RglBrdf:
         theta_i, phi_i = elevation(wi), np.arctan2(wi[:, 1], wi[:, 0])
         theta_m, phi_m = elevation(wm), np.arctan2(wm[:, 1], wm[:, 0])
         u_i = np.stack([theta_to_u(theta_i), phi_to_u(phi_i)], axis=1)
-        u_phi_m = phi_to_u(phi_m - phi_i if self.isotropic else phi_m)
+        u_phi_m = phi_to_u(phi_m - phi_i)  # isotropic: relative to wi's azimuth
         u_m = np.stack([theta_to_u(theta_m), u_phi_m - np.floor(u_phi_m)], axis=1)
         parameters = [phi_i, theta_i]
         sample = self.vndf.invert(u_m, parameters)
-        scale = self.ndf.evaluate(u_m) / (4 * self.sigma.evaluate(u_i))
+        scale = self.ndf.evaluate(u_m) / (4 * self.sigma.evaluate(u_i)) if self.jacobian else 1
         out = np.zeros((len(wi), 3))
         for c in range(3):
             rgb = self.rgb.evaluate(sample, parameters + [np.full(len(wi), float(c))])

@@ -14,6 +14,7 @@
 #include "basis/io/image.h"
 #include "basis/io/image_file.h"
 #include "basis_generated.h"
+#include "support/merl_file.h"
 #include "support/run_tool.h"
 #include "support/temp_dir.h"
 
@@ -154,14 +155,8 @@ TEST(BadInputMatrix, Specs) {
   check(dir, "brdf2qt", {{"missing_field.json", "-o", "out.qt"}, 1, "field 'alpha'"});
   check(dir, "brdf2qt", {{"unknown.json", "-o", "out.qt"}, 1, "unknown model 'cook-torrance'"});
   // A MERL file of finite samples too large for a table's floats: refused by name.
-  {
-    std::ofstream merl(dir.file("huge.binary"), std::ios::binary);
-    const std::int32_t dims[3] = {90, 90, 180};
-    merl.write(reinterpret_cast<const char*>(dims), sizeof dims);
-    const std::vector<double> samples(3 * 90 * 90 * 180, 1e300);
-    merl.write(reinterpret_cast<const char*>(samples.data()),
-               std::streamsize(samples.size() * sizeof(double)));
-  }
+  testing::write_merl_samples(dir.file("huge.binary"),
+                              std::vector<double>(testing::kMerlSamples, 1e300));
   write_text(dir.file("huge_merl.json"), R"({"model": "merl", "file": "huge.binary"})");
   check(dir, "brdf2qt", {{"huge_merl.json", "-o", "out.qt"}, 1, "huge.binary: MERL samples"});
 }

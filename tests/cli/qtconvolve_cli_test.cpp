@@ -5,17 +5,20 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <ostream>
+#include <vector>
 
 #include "basis/brdf/brdf_spec.h"
 #include "basis/core/tilt.h"
 #include "basis/format/qt_file.h"
 #include "basis/lighting/capture.h"
 #include "support/environments.h"
+#include "support/merl_file.h"
 #include "support/reflection_reference.h"
 #include "support/run_tool.h"
 #include "support/temp_dir.h"
@@ -330,10 +333,33 @@ TEST(QtconvolveCli, AReferenceWhoseMapIsGoneNamesIt) {
       run_tool("qtconvolve", {"../l.qt", "../c.qt", "--reference", "-q"}, dir.file("elsewhere"));
   EXPECT_EQ(gone.status, 1) << gone.err;
   EXPECT_EQ(testing::line_count(gone.err), 1) << gone.err;
-  EXPECT_NE(gone.err.find("../c.qt: cannot open what it was captured from (flat.exr"),
+  EXPECT_NE(gone.err.find("../c.qt: cannot read what it was captured from (flat.exr"),
             std::string::npos)
       << gone.err;
+  EXPECT_NE(gone.err.find("relative paths are read from the current folder"), std::string::npos)
+      << gone.err;
   EXPECT_EQ(gone.out, "");
+  // The same for a measured table whose data file is gone: the table is named.
+  std::filesystem::create_directories(dir.file("measured"));
+  testing::write_merl_samples(dir.file("measured/grey.binary"),
+                              std::vector<double>(testing::kMerlSamples, 0.1));
+  std::ofstream(dir.file("measured/grey.json")) << R"({"model": "merl", "file": "grey.binary"})";
+  ASSERT_EQ(run_tool("brdf2qt",
+                     {"measured/grey.json", "-o", "measured/grey.qt", "--wo-res", "3", "--wi-res",
+                      "8", "--no-tilt", "-q"},
+                     dir.path())
+                .status,
+            0);
+  std::filesystem::remove(dir.file("measured/grey.binary"));
+  const auto data_gone =
+      run_tool("qtconvolve", {"measured/grey.qt", "c.qt", "--reference", "-q"}, dir.path());
+  EXPECT_EQ(data_gone.status, 1) << data_gone.err;
+  EXPECT_EQ(testing::line_count(data_gone.err), 1) << data_gone.err;
+  EXPECT_NE(data_gone.err.find("measured/grey.qt: cannot read the BRDF it was tabulated from ("),
+            std::string::npos)
+      << data_gone.err;
+  EXPECT_NE(data_gone.err.find("grey.binary"), std::string::npos) << data_gone.err;
+  EXPECT_EQ(data_gone.out, "");
   const auto here = convolve_json(dir, {"l.qt", "c.qt", "--reference"});
   // Lambert 0.5 under a unit sky reflects 0.5; the reference is computed in floats.
   EXPECT_NEAR(here["results"][0]["reference"][0].get<double>(), 0.5, 1e-5);

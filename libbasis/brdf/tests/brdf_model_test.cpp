@@ -13,6 +13,7 @@
 #include "basis/brdf/table_lookup.h"
 #include "basis/core/projection.h"
 #include "support/brdf_reference.h"
+#include "support/merl_file.h"
 #include "support/temp_dir.h"
 
 namespace basis {
@@ -195,10 +196,7 @@ void write_merl(const std::string& path, const Brdf& brdf, bool mark_missing = f
           samples[c * std::size_t(nh) * nd * np + index] =
               missing ? -1.0 : f[c] / MerlBrdf::kScale[c];
       }
-  std::ofstream out(path, std::ios::binary);
-  const std::int32_t dims[3] = {nh, nd, np};
-  out.write(reinterpret_cast<const char*>(dims), sizeof dims);
-  out.write(reinterpret_cast<const char*>(samples.data()), std::streamsize(samples.size() * 8));
+  testing::write_merl_samples(path, samples);
 }
 
 // The half vector of a MERL lookup near the horizon: wi and wo at z = 1e-200 on opposite sides
@@ -221,8 +219,8 @@ TEST(MerlBrdf, HalfVectorHoldsAtTheHorizon) {
 // A BRDF whose values are finite doubles beyond the float range (made in memory: the MERL
 // reader refuses such files) stops tabulation with an error that names the direction.
 TEST(MerlBrdf, ValuesBeyondFloatsStopTabulationNamingWo) {
-  const Brdf huge = std::make_shared<const MerlBrdf>(std::vector<double>(
-      3 * std::size_t(MerlBrdf::kThetaH) * MerlBrdf::kThetaD * MerlBrdf::kPhiD, 1e300));
+  const Brdf huge =
+      std::make_shared<const MerlBrdf>(std::vector<double>(testing::kMerlSamples, 1e300));
   BrdfTableOptions options;
   options.wo_resolution = 2;
   options.wi_resolution = 4;

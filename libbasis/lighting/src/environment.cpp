@@ -18,12 +18,9 @@ Environment::Environment(const Image& latlong, double rotate_z_degrees, std::str
       width_(latlong.width),
       height_(latlong.height),
       rotation_(rotate_z_degrees * std::numbers::pi / 180) {
-  if (width_ < 2 || height_ < 1) {
-    const std::string problem = "a lat-long environment map needs at least 2 x 1 pixels, got " +
-                                std::to_string(width_) + " x " + std::to_string(height_);
-    if (name_.empty()) throw std::invalid_argument(problem);
-    throw FileError(name_ + ": " + problem);
-  }
+  if (width_ < 2 || height_ < 1)
+    throw FileError(name_ + ": a lat-long environment map needs at least 2 x 1 pixels, got " +
+                    std::to_string(width_) + " x " + std::to_string(height_));
   if (!std::isfinite(rotation_)) throw std::invalid_argument("environment rotation is not finite");
   cos_rotation_ = std::cos(rotation_);
   sin_rotation_ = std::sin(rotation_);

@@ -6,6 +6,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <stdexcept>
 
 #include "basis/core/file_error.h"
 #include "basis/core/random.h"
@@ -213,8 +214,10 @@ RenderResult render(const RenderScene& scene, const RenderOptions& options,
   } catch (const std::overflow_error& e) {
     throw too_bright(e.what());
   }
-  if (!std::ranges::all_of(result.image.pixels, [](float v) { return std::isfinite(v); }))
+  if (std::ranges::any_of(result.image.pixels, [](float v) { return std::isinf(v); }))
     throw too_bright("pixels overflow float (largest 3.4e38)");
+  if (std::ranges::any_of(result.image.pixels, [](float v) { return std::isnan(v); }))
+    throw std::runtime_error(scene.file.path + ": the render holds NaN pixels");
   result.timings.total = since(start);
   return result;
 }

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <atomic>
+#include <filesystem>
+#include <initializer_list>
 #include <numbers>
 #include <stdexcept>
 #include <string>
@@ -47,7 +49,23 @@ std::vector<Rgb> reference_lookups(const QtFile& table_file, const QtFile& captu
     throw std::invalid_argument("captures " + std::to_string(points.first) + " .. " +
                                 std::to_string(points.end()) + " of a set of " +
                                 std::to_string(captures.size()));
-  const BrdfSpec spec = table_brdf(table_file);
+  // Inputs recorded in the files, read again: a failure names the file that recorded them.
+  const auto from_the_current_folder = [](std::initializer_list<std::string> paths) {
+    for (const std::string& p : paths)
+      if (!p.empty() && std::filesystem::path(p).is_relative())
+        return std::string("; relative paths are read from the current folder");
+    return std::string();
+  };
+  const BrdfSpec spec = [&] {
+    try {
+      return table_brdf(table_file);
+    } catch (const FileError& e) {
+      const std::vector<std::string>& sources = table_file.provenance().sources;
+      throw FileError(table_file.name() + ": cannot read the BRDF it was tabulated from (" +
+                      e.what() + ")" +
+                      from_the_current_folder({sources.empty() ? std::string() : sources[0]}));
+    }
+  }();
   const CaptureRecipe recipe = capture_recipe(captures_file);
   if (recipe.options.resolution != table.trees.shape().resolution)
     throw std::invalid_argument("a reference needs the table and the captures at one resolution (" +
@@ -58,8 +76,8 @@ std::vector<Rgb> reference_lookups(const QtFile& table_file, const QtFile& captu
       return open_capture_inputs(recipe);
     } catch (const FileError& e) {
       // Recorded paths are as capture2qt was given them: relative ones from its folder.
-      throw FileError(captures_file.name() + ": cannot open what it was captured from (" +
-                      e.what() + "); relative paths are read from the current folder");
+      throw FileError(captures_file.name() + ": cannot read what it was captured from (" +
+                      e.what() + ")" + from_the_current_folder({recipe.environment, recipe.scene}));
     }
   }();
   // The entries around wo re-tabulated (with their derivatives over wo when the table has

@@ -20,7 +20,8 @@ class MerlBrdf : public MeasuredBrdf {
   static constexpr double kScale[3] = {1.0 / 1500, 1.15 / 1500, 1.66 / 1500};
 
   // Reads a MERL file; throws FileError naming the file and the problem (missing, short,
-  // wrong header, NaN samples). Negative samples mark missing data and evaluate to 0.
+  // wrong header, NaN or infinite samples, samples above 1e30, which a table of floats cannot
+  // hold). Negative samples mark missing data and evaluate to 0.
   static std::shared_ptr<const MerlBrdf> read(const std::string& path);
   // The same from the file's bytes; `name` stands for the file in errors.
   static std::shared_ptr<const MerlBrdf> parse(std::span<const unsigned char> bytes,

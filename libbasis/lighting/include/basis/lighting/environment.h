@@ -29,7 +29,7 @@ class Environment {
   // `rotate_z_degrees` about z (a feature at azimuth phi moves to phi + rotation). Pixels whose
   // luminance exceeds 8 times the map's mean (at most 0.5 % of them) are bright: their excess
   // over that level is kept apart and splatted exactly by captures. `name` (the map's file)
-  // stands for the environment in errors.
+  // stands for the environment in errors. A map narrower than 2 pixels is a FileError naming it.
   explicit Environment(const Image& latlong, double rotate_z_degrees = 0,
                        std::string name = "environment map");
   // A constant environment. Throws std::invalid_argument unless every channel is finite, at
