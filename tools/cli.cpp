@@ -100,6 +100,11 @@ ProgressBar::~ProgressBar() {
   finish();
 }
 
+void ProgressBar::print_line(const std::string& line) const {
+  std::fprintf(stderr, "%s%s\n", enabled_ ? "\r\033[K" : "", line.c_str());
+  std::fflush(stderr);
+}
+
 void ProgressBar::finish() {
   if (!enabled_) return;
   enabled_ = false;

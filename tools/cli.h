@@ -45,6 +45,9 @@ class ProgressBar {
   ProgressBar(std::string label, bool quiet);
   ~ProgressBar();
   const TaskControl& control() const { return control_; }
+  // Prints one line on stderr on a line of its own: the bar, when drawn, is cleared first and
+  // redrawn at the next report.
+  void print_line(const std::string& line) const;
   void finish();
 
  private:

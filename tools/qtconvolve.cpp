@@ -428,7 +428,7 @@ int main(int argc, char** argv) {
         write_header();
         // Always said, -q or not: the lights lose accuracy (see --lights).
         if (!convolution.warning().empty())
-          std::fprintf(stderr, "qtconvolve: warning: %s\n", convolution.warning().c_str());
+          progress.print_line("qtconvolve: warning: " + convolution.warning());
       }
       std::string text;
       for (const Row& row : rows) {

@@ -360,6 +360,24 @@ TEST(QtconvolveCli, AReferenceWhoseMapIsGoneNamesIt) {
       << data_gone.err;
   EXPECT_NE(data_gone.err.find("grey.binary"), std::string::npos) << data_gone.err;
   EXPECT_EQ(data_gone.out, "");
+  // Under a sun kept apart, the missing data file is a warning (the lights take the table's
+  // texels): one line when the run succeeds, none before an error.
+  ASSERT_EQ(run_tool("capture2qt",
+                     {"--env", sun_map(dir), "--at", "0,0,0", "--res", "8", "-o", "sun.qt", "-q"},
+                     dir.path())
+                .status,
+            0);
+  const auto warned = run_tool("qtconvolve", {"measured/grey.qt", "sun.qt", "-q"}, dir.path());
+  EXPECT_EQ(warned.status, 0) << warned.err;
+  EXPECT_EQ(testing::line_count(warned.err), 1) << warned.err;
+  EXPECT_NE(warned.err.find("qtconvolve: warning: "), std::string::npos) << warned.err;
+  EXPECT_NE(warned.err.find("grey.binary"), std::string::npos) << warned.err;
+  const auto failed =
+      run_tool("qtconvolve", {"measured/grey.qt", "sun.qt", "--reference", "-q"}, dir.path());
+  EXPECT_EQ(failed.status, 1) << failed.err;
+  EXPECT_EQ(testing::line_count(failed.err), 1) << failed.err;
+  EXPECT_EQ(failed.err.find("warning"), std::string::npos) << failed.err;
+  EXPECT_EQ(failed.out, "");
   const auto here = convolve_json(dir, {"l.qt", "c.qt", "--reference"});
   // Lambert 0.5 under a unit sky reflects 0.5; the reference is computed in floats.
   EXPECT_NEAR(here["results"][0]["reference"][0].get<double>(), 0.5, 1e-5);
