@@ -236,10 +236,7 @@ PackedTree pack_folded(const std::vector<FoldedNode>& nodes, int resolution, int
   float largest_value = 0;
   for (int q = 0; q < 4; ++q)
     largest_value = std::max(largest_value, lane(largest, q));
-  // At least the smallest normal float, so that the scale of values as small as subnormals is
-  // not zero.
-  out.scales.value_scale =
-      largest_value > 0 ? std::ldexp(1.0f, std::max(std::ilogb(largest_value) - 14, -126)) : 1.0f;
+  out.scales.value_scale = half_value_scale(largest_value);
   const __m128 to_half = _mm_set1_ps(1 / out.scales.value_scale);
   const __m128 from_half = _mm_set1_ps(out.scales.value_scale);
   // Halves, and the live bounds with the value's rounding added (and 2^-20 of themselves for the

@@ -19,6 +19,10 @@ float PackedTreeView::largest_deviation_bound(int n, int g, int c, int q, int le
   return float(double(b) * std::max(1.0, texels_per_side) * (1 + 1e-6));
 }
 
+float half_value_scale(double largest) {
+  return largest > 0 ? std::ldexp(1.0f, std::max(std::ilogb(largest) - 14, -126)) : 1.0f;
+}
+
 std::uint8_t bound_code_at_least(double bound, float bound_scale) {
   auto reaches = [&](int code) {
     return double(bound_code_value(std::uint8_t(code)) * bound_scale) >= bound;
@@ -63,10 +67,7 @@ PackedTree pack_tree(const Quadtree& tree, BoundKind bounds, int bounded_groups,
           largest = std::max(largest, double(std::abs(source.value(n, g, c, q))));
   if (largest >= kPackedValueLimit)
     throw std::overflow_error("values of 2^125 (4.3e37) or more cannot be packed");
-  // At least the smallest normal float, so that the scale of values as small as subnormals is
-  // not zero.
-  out.scales.value_scale =
-      largest > 0 ? std::ldexp(1.0f, std::max(std::ilogb(largest) - 14, -126)) : 1.0f;
+  out.scales.value_scale = half_value_scale(largest);
   const double value_scale = out.scales.value_scale;
   // Every node's value words, once (halves, or a shared-exponent word per quadrant); bounds for
   // the packed values: the source's plus how far each value moved.

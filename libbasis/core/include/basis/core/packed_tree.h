@@ -89,6 +89,11 @@ inline float bound_code_value(std::uint8_t c) {
 inline constexpr double kPackedValueLimit = 0x1p125;
 inline constexpr float kLargestValueScale = 0x1p110f, kLargestBoundScale = 0x1p125f;
 
+// The value scale of halves for values up to `largest` in magnitude: the power of two that puts
+// `largest` in the halves' top binade, at least the smallest normal float (so that values as
+// small as subnormals get a scale that is not zero); 1 when every value is 0.
+float half_value_scale(double largest);
+
 // The smallest bound code whose value times bound_scale is at least `bound` (255 when none is):
 // a bound rounded up to a code, so that it still holds.
 std::uint8_t bound_code_at_least(double bound, float bound_scale);
