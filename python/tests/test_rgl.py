@@ -46,23 +46,25 @@ def test_evaluation_matches_a_second_implementation():
 
 def albedo_by_quadrature(brdf, parameter):
     """The integral over the free direction of f cos (what a table entry's lookup under a unit
-    light gives), by Gauss-Legendre rings around the mirror direction, graded towards it so that
-    sharp lobes are resolved: 14 rings of 16 nodes, 256 azimuths."""
+    light gives), by Gauss-Legendre along 256 azimuths around the mirror direction, in polar
+    segments graded towards it so that sharp lobes are resolved (16 nodes each), the last one
+    ending at the horizon so that the integrand's edge there is a segment's end."""
     centre = parameter * [-1, -1, 1]
     t = np.cross([1.0, 0, 0] if abs(centre[0]) < 0.9 else [0, 1.0, 0], centre)
     t /= np.linalg.norm(t)
     b = np.cross(centre, t)
-    knots = [0, 0.001, 0.003, 0.01, 0.02, 0.04, 0.08, 0.15, 0.3, 0.6, 1.0, 1.5, 2.0, 2.6, np.pi]
+    knots = np.array([0, 0.001, 0.003, 0.01, 0.02, 0.04, 0.08, 0.15, 0.3, 0.6, 1.0, 1.5, 2.0, 2.6])
     x, w = np.polynomial.legendre.leggauss(16)
-    polar = np.concatenate([lo + (hi - lo) * (x + 1) / 2 for lo, hi in zip(knots, knots[1:])])
-    ring = np.concatenate([w * (hi - lo) / 2 for lo, hi in zip(knots, knots[1:])]) * np.sin(polar)
-    azimuth = (np.arange(256) + 0.5) / 256 * 2 * np.pi
-    p, a = np.meshgrid(polar, azimuth, indexing="ij")
-    free = (np.cos(p)[..., None] * centre + np.sin(p)[..., None] *
-            (np.cos(a)[..., None] * t + np.sin(a)[..., None] * b)).reshape(-1, 3)
-    weight = np.repeat(ring * (2 * np.pi / 256), 256)
-    above = free[:, 2] > 0
-    free, weight = free[above], weight[above]
+    free, weight = [], []
+    for azimuth in (np.arange(256) + 0.5) / 256 * 2 * np.pi:
+        d = np.cos(azimuth) * t + np.sin(azimuth) * b
+        horizon = np.arctan2(centre[2], -d[2])  # where cos(p) centre_z + sin(p) d_z = 0
+        ends = np.append(knots[knots < horizon], horizon)
+        polar = np.concatenate([lo + (hi - lo) * (x + 1) / 2 for lo, hi in zip(ends, ends[1:])])
+        ring = np.concatenate([w * (hi - lo) / 2 for lo, hi in zip(ends, ends[1:])])
+        free.append(np.cos(polar)[:, None] * centre + np.sin(polar)[:, None] * d)
+        weight.append(ring * np.sin(polar) * (2 * np.pi / 256))
+    free, weight = np.concatenate(free), np.concatenate(weight)
     value = brdf.value(np.repeat(parameter[None], len(free), axis=0), free)
     return (value * weight[:, None]).sum(axis=0)
 
@@ -71,7 +73,8 @@ def test_tabulated_albedo_matches_quadrature_of_the_second_implementation():
     """A table tabulated from each shared file (7 x 7 entries of 16^2 texels: a unit light's
     lookup integrates the texel averages exactly at any resolution), looked up under a unit light
     at the entries at 0, 36.9 and 67.4 degrees, against the albedo the second implementation
-    integrates by quadrature."""
+    integrates by quadrature: within 0.1 % of the largest channel (f grows as 1/cos towards the
+    horizon in these files; the tables grade their quadrature there)."""
     files = sorted(glob.glob(os.path.join(FOLDER, "*.bsdf")))
     if not files:
         pytest.skip(f"{FOLDER} is absent or holds no .bsdf files")
@@ -84,6 +87,6 @@ def test_tabulated_albedo_matches_quadrature_of_the_second_implementation():
             wo = np.array([2 * s, 0, 1 - s * s]) / (1 + s * s)
             tabulated = np.array(basis.reflect(table, light, wo)[0])
             expected = albedo_by_quadrature(reference, wo)
-            assert np.all(np.abs(tabulated - expected) <= 0.005 * expected.max()), (
+            assert np.all(np.abs(tabulated - expected) <= 0.001 * expected.max()), (
                 f"{os.path.basename(path)} at {np.degrees(np.arccos(wo[2])):.1f} degrees: "
                 f"tabulated {tabulated}, quadrature {expected}")

@@ -97,12 +97,14 @@ struct BrdfTableOptions {
   // (table_taps) are tabulated, and every other entry holds zero: a partial table, for tests
   // and previews that need a few directions of a large table.
   std::vector<Vec3> only_for;
+  // Graded at the horizon: measured BRDFs (RGL) keep f cos finite there, so f grows as 1/cos.
   SupersampleOptions supersampling{.relative_tolerance = 2e-3,
                                    .absolute_floor = 1e-6,
                                    .floor_fraction_of_mean = 1,
                                    .max_depth = 6,
                                    .max_group_depth = 6,
-                                   .forced_depth = 3};
+                                   .forced_depth = 3,
+                                   .graded_boundary = true};
 };
 
 // The angular width of the BRDF's lobe at normal incidence, in radians: the half width at half

@@ -32,7 +32,30 @@ struct SupersampleOptions {
   // Texels flagged by the caller (a feature may hide between samples there) are subdivided
   // unconditionally down to this depth.
   int forced_depth = 3;
+  // Texels on the square's edge are sampled in a variable graded quadratically towards it
+  // (boundary_graded), so that a function with an integrable singularity of order
+  // 1/sqrt(distance) there converges: a BRDF over the cosine-weighted disk whose f cos stays
+  // finite at the horizon, where f grows as 1/cos. An exact change of variables otherwise.
+  bool graded_boundary = false;
 };
+
+// Where the sample at u lies once graded towards the square's edge, and the change of
+// variables' Jacobian: within an edge texel of an n-texel side, its offset s from the texel's
+// inner side becomes 1 - (1 - s)^2 (s^2 on the low side; 3 s^2 - 2 s^3 when n = 1), so that
+// the samples crowd towards the edge; other texels keep u (Jacobian 1).
+struct GradedCoordinate {
+  double u = 0;
+  double jacobian = 1;
+};
+inline GradedCoordinate boundary_graded(double u, int n) {
+  const double scaled = u * n;
+  const double texel = std::clamp(std::floor(scaled), 0.0, double(n - 1));
+  const double s = scaled - texel;
+  if (n == 1) return {s * s * (3 - 2 * s), 6 * s * (1 - s)};
+  if (texel == 0) return {s * s / n, 2 * s};
+  if (texel == n - 1) return {(texel + 1 - (1 - s) * (1 - s)) / n, 2 * (1 - s)};
+  return {u, 1};
+}
 
 namespace detail {
 
@@ -115,20 +138,30 @@ long long average_over_texels(Grid& grid, const F& f, const SupersampleOptions& 
   const int n = grid.resolution;
   const int values = grid.channels * grid.groups;
   const int checked = grid.channels * std::clamp(options.checked_groups, 1, grid.groups);
+  // f at graded coordinates, times the Jacobian, has the same texel averages.
+  const auto sample = [&](double u, double v, double* out, bool all_groups) {
+    if (!options.graded_boundary) return f(u, v, out, all_groups);
+    const GradedCoordinate gu = boundary_graded(u, n), gv = boundary_graded(v, n);
+    f(gu.u, gv.u, out, all_groups);
+    const double jacobian = gu.jacobian * gv.jacobian;
+    if (jacobian == 1) return;
+    for (int k = 0; k < (all_groups ? values : checked); ++k)
+      out[k] *= jacobian;
+  };
   // Pass 1: centre samples, for the channels' means.
   std::vector<double> centres(std::size_t(n) * n * values);
   std::vector<double> mean(checked, 0.0), floor(checked);
   for (int y = 0; y < n; ++y)
     for (int x = 0; x < n; ++x) {
       double* c = &centres[(std::size_t(y) * n + x) * values];
-      f((x + 0.5) / n, (y + 0.5) / n, c, true);
+      sample((x + 0.5) / n, (y + 0.5) / n, c, true);
       for (int k = 0; k < checked; ++k)
         mean[k] += (k < grid.channels ? c[k] : std::abs(c[k])) / (double(n) * n);
     }
   for (int k = 0; k < checked; ++k)
     floor[k] = std::max(options.absolute_floor, options.floor_fraction_of_mean * std::abs(mean[k]));
   // Pass 2: refine every texel.
-  const detail::CellRefiner<F> refiner(f, options, n, values, checked, floor);
+  const detail::CellRefiner<decltype(sample)> refiner(sample, options, n, values, checked, floor);
   std::vector<double> average(values);
   long long evaluations = std::size_t(n) * n;
   for (int y = 0; y < n; ++y)
