@@ -247,11 +247,14 @@ int main(int argc, char** argv) {
                  "the four neighbours; bilinear for tables without them) or bilinear")
       ->check(CLI::IsMember({"hermite", "bilinear"}));
   app.add_flag("--json", json,
-               "print {\"results\": [{\"index\", \"value\", \"bound\"}, ...]} (no \"bound\" "
-               "with --no-bound)");
+               "print {\"results\": [{\"index\", \"value\", \"bound\"[, \"reference\", "
+               "\"difference\"]}, ...]} and, with --time, \"ns_per_convolution\" and "
+               "\"ns_per_lookup\" (with --dense the dense side's, and the trees' as "
+               "\"tree_ns_per_convolution\", \"tree_ns_per_lookup\", \"tree_speedup\"); no "
+               "\"bound\" with --no-bound or --dense");
   app.add_flag("--csv", csv,
                "print CSV: index,r,g,b,bound_r,bound_g,bound_b[,reference...] (no bound columns "
-               "with --no-bound)");
+               "with --no-bound or --dense)");
   app.add_flag(
       "--no-bound", no_bound,
       "values alone: the trees are descended as without it, to the same values (to "
@@ -275,7 +278,8 @@ int main(int argc, char** argv) {
                "results at most)");
   app.add_flag("--dense", dense,
                "compute the same results with vectorised dense products of every tree's "
-               "full-resolution reconstruction (built before timing; untilted lookups); with "
+               "full-resolution reconstruction (built before timing; untilted lookups; they "
+               "certify nothing, so no bound is printed); with "
                "--time, the trees are timed in the same run, five runs of each in pairs (the order "
                "swapped from pair to pair), and both are reported with the median of the pairs' "
                "ratios");
@@ -318,6 +322,8 @@ int main(int argc, char** argv) {
     const basis::LightBrdf light_brdf =
         lights_from == "brdf" ? basis::LightBrdf::spec : basis::LightBrdf::table;
     if (dense && shading.normal) throw UsageError("--dense takes untilted lookups (no --normal)");
+    // The dense product certifies nothing: its results print without a bound.
+    const bool certified = !no_bound && !dense;
     const bool has_table = a.kind() == QtKind::brdf_table || b.kind() == QtKind::brdf_table;
     const QtKind shaded_kind = a.kind() == QtKind::brdf_table ? b.kind() : a.kind();
     const bool shades_captures = has_table && shaded_kind == QtKind::capture_set;
@@ -353,10 +359,10 @@ int main(int argc, char** argv) {
       if (json) {
         out.write("{\"results\": [");
       } else if (range.first == 0 && csv) {  // shards after the first continue the first's
-        out.write(std::string("index,r,g,b") + (no_bound ? "" : ",bound_r,bound_g,bound_b") +
+        out.write(std::string("index,r,g,b") + (certified ? ",bound_r,bound_g,bound_b" : "") +
                   (reference ? ",reference_r,reference_g,reference_b" : "") + "\n");
       } else if (range.first == 0 && !single) {
-        out.write("# " + title + (no_bound ? ", RGB value" : ", RGB value +- certified bound") +
+        out.write("# " + title + (certified ? ", RGB value +- certified bound" : ", RGB value") +
                   (reference ? "; full-resolution reference; difference" : "") + "\n");
       }
     };
@@ -370,6 +376,7 @@ int main(int argc, char** argv) {
     basis::cli::ProgressBar progress(reference ? "qtconvolve --reference" : "qtconvolve",
                                      quiet || (!reference && !manifests));
     bool first_block = true;
+    bool warned_tilt = false;
     std::uint64_t done = 0;
     basis::for_each_block(a, b, range, block, [&](const basis::ConvolutionBlock& blk) {
       progress.control().check();
@@ -390,8 +397,11 @@ int main(int argc, char** argv) {
           throw basis::FileError(convolution.shaded().name() + ": capture " +
                                  std::to_string(rows[k].index) + " under --normal " + normal_text +
                                  ": " + e.what());
+        } catch (const std::overflow_error& e) {  // radiance beyond what floats hold
+          throw basis::FileError(convolution.shaded().name() + ": capture " +
+                                 std::to_string(rows[k].index) + ": " + e.what());
         }
-        rows[k].bound = !no_bound;
+        rows[k].bound = certified;
       }
       // Each block is timed for at least 0.1 s: a long run is timed on its first blocks.
       const bool timed = timing && timing->results < kMostTimedResults;
@@ -429,6 +439,19 @@ int main(int argc, char** argv) {
         // Always said, -q or not: the lights lose accuracy (see --lights).
         if (!convolution.warning().empty())
           progress.print_line("qtconvolve: warning: " + convolution.warning());
+      }
+      // Said once, after the first block that tilts a capture past the supported tilt.
+      if (shading.normal && !warned_tilt && shades_captures) {
+        const double tilt = basis::largest_tilt_degrees(convolution.shaded_captures(),
+                                                        *shading.normal);
+        if (tilt > basis::kSupportedTiltDegrees) {
+          warned_tilt = true;
+          progress.print_line(printed(
+              "qtconvolve: warning: --normal tilts captures by up to %.0f degrees; tilts are "
+              "supported to %.0f (within about 2 %% there), and the bound does not cover the "
+              "tilt's error",
+              tilt, basis::kSupportedTiltDegrees));
+        }
       }
       std::string text;
       for (const Row& row : rows) {

@@ -20,18 +20,28 @@ CaptureSetView as_captures(const QtFile& f) {
                                          : CaptureSetView{{}, {}, {}, f.trees(), {}, {}};
 }
 
-}  // namespace
-
-// Every tree of a file as a full-resolution grid; with `lights`, each capture's directional
-// lights splatted into its texels.
-std::vector<Grid> dense_grids(const CaptureSetView& captures, bool lights) {
+// Every tree of a file as a full-resolution grid, at `resolution` when its own is coarser (the
+// same function: a dense product needs grids of one resolution); with `lights`, each capture's
+// directional lights splatted into its texels.
+std::vector<Grid> dense_grids(const CaptureSetView& captures, bool lights, int resolution) {
   std::vector<Grid> grids;
   for (std::size_t k = 0; k < captures.trees.size(); ++k) {
-    grids.push_back(reconstruct(captures.trees.tree(k)));
-    if (lights) splat_lights(captures.lights_of(k), grids.back());
+    Grid grid = reconstruct(captures.trees.tree(k));
+    if (lights) splat_lights(captures.lights_of(k), grid);
+    grids.push_back(upsample(grid, std::max(resolution, grid.resolution)));
   }
   return grids;
 }
+
+// The finest resolution of a file's trees.
+int finest_resolution(const CaptureSetView& captures) {
+  int finest = 1;
+  for (std::size_t k = 0; k < captures.trees.size(); ++k)
+    finest = std::max(finest, captures.trees.tree(k).shape().resolution);
+  return finest;
+}
+
+}  // namespace
 
 FileConvolution::FileConvolution(const QtFile& a, const QtFile& b, const ShadingOptions& shading,
                                  LightBrdf lights, Evaluation evaluation, const FileRanges& ranges)
@@ -87,10 +97,14 @@ FileConvolution::FileConvolution(const QtFile& a, const QtFile& b, const Shading
       throw std::invalid_argument("dense evaluation takes untilted lookups only (no --normal)");
     if (table_) {
       dense_table_ = dense_lookup(table_->brdf_table(), shading_.wo, shading_.interpolation);
-      dense_b_ = dense_grids(shaded_captures(), false);
+      const int resolution =
+          std::max(dense_table_->grid.resolution, finest_resolution(shaded_captures()));
+      dense_table_->grid = upsample(dense_table_->grid, resolution);
+      dense_b_ = dense_grids(shaded_captures(), false, resolution);
     } else {
-      dense_a_ = dense_grids(view_a_, true);
-      dense_b_ = dense_grids(view_b_, true);
+      const int resolution = std::max(finest_resolution(view_a_), finest_resolution(view_b_));
+      dense_a_ = dense_grids(view_a_, true, resolution);
+      dense_b_ = dense_grids(view_b_, true, resolution);
     }
   }
 }

@@ -149,6 +149,8 @@ TEST(QtconvolveCli, CertifiedBoundHoldsAgainstTheFullResolutionReference) {
         const auto& r = j["results"][k];
         EXPECT_EQ(alone["results"][k]["value"], r["value"]) << "point " << k << " wo " << wo;
         EXPECT_FALSE(alone["results"][k].contains("bound"));
+        // The dense product certifies nothing: it prints no bound (it printed zeros).
+        EXPECT_FALSE(dense["results"][k].contains("bound"));
         for (int c = 0; c < 3; ++c) {
           // The error against the reference, computed here rather than read from the tool.
           const double value = r["value"][c].get<double>();
@@ -310,6 +312,44 @@ void make_lambert_table(const TempDir& dir) {
   ASSERT_EQ(
       run_tool("brdf2qt", {"l.json", "--wo-res", "3", "--wi-res", "8", "-q"}, dir.path()).status,
       0);
+}
+
+// --dense over a table and captures of different resolutions (8^2 entries, 32^2 captures): the
+// coarser grid is repeated over the finer's texels, and both evaluations give Lambert 0.5's
+// reflection of a unit sky, 0.5, with no bound printed for the dense one.
+TEST(QtconvolveCli, DenseProductsOfDifferentResolutionsAndTiltsPastTheSupportedOnes) {
+  TempDir dir;
+  make_lambert_table(dir);
+  if (::testing::Test::HasFatalFailure()) return;
+  ASSERT_EQ(
+      run_tool("capture2qt",
+               {"--env-constant", "1,1,1", "--at", "0,0,0", "--res", "32", "-o", "sky.qt", "-q"},
+               dir.path())
+          .status,
+      0);
+  for (const bool dense : {false, true}) {
+    std::vector<std::string> args = {"l.qt", "sky.qt", "--wo", "0.3,0.2,0.93"};
+    if (dense) args.push_back("--dense");
+    const auto j = convolve_json(dir, args);
+    ASSERT_EQ(j["results"].size(), 1u) << dense;
+    EXPECT_EQ(j["results"][0].contains("bound"), !dense);
+    for (int c = 0; c < 3; ++c)
+      EXPECT_NEAR(j["results"][0]["value"][c].get<double>(), 0.5, 1e-3) << dense;
+  }
+
+  // Tilts past the supported 10 degrees are said once on stderr (the bound does not cover the
+  // tilt's error); within them, nothing is.
+  const auto tilted =
+      run_tool("qtconvolve", {"l.qt", "sky.qt", "--normal", "0.5,0,0.866", "-q"}, dir.path());
+  EXPECT_EQ(tilted.status, 0) << tilted.err;
+  EXPECT_NE(tilted.err.find("warning: --normal tilts captures by up to 30 degrees"),
+            std::string::npos)
+      << tilted.err;
+  EXPECT_EQ(std::count(tilted.err.begin(), tilted.err.end(), '\n'), 1) << tilted.err;
+  const auto slight =
+      run_tool("qtconvolve", {"l.qt", "sky.qt", "--normal", "0.1,0,1", "-q"}, dir.path());
+  EXPECT_EQ(slight.status, 0) << slight.err;
+  EXPECT_EQ(slight.err, "");
 }
 
 // A capture set records its map as capture2qt was given it; --reference re-reads it. From a

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -13,6 +15,27 @@
 #endif
 
 namespace basis {
+
+CertifiedFloat certified_float(double value, double bound) {
+  constexpr double kLargest = std::numeric_limits<float>::max();
+  if (!(std::abs(value) <= kLargest) || (std::isfinite(bound) && !(bound <= kLargest))) {
+    char text[96];
+    std::snprintf(text, sizeof text, "%.3g +- %.3g", value, bound);
+    throw std::overflow_error(std::string("the convolution's result (") + text +
+                              ") lies beyond what floats hold");
+  }
+  CertifiedFloat out;
+  out.value = float(value);
+  if (!std::isfinite(bound)) {
+    out.bound = std::numeric_limits<float>::infinity();
+    return out;
+  }
+  const double widened = bound + std::abs(value - double(out.value));
+  out.bound = float(widened);
+  if (double(out.bound) < widened)
+    out.bound = std::nextafter(out.bound, std::numeric_limits<float>::infinity());
+  return out;
+}
 
 namespace {
 

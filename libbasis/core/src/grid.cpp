@@ -49,6 +49,20 @@ Grid downsample(const Grid& grid, int resolution) {
   return out;
 }
 
+Grid upsample(const Grid& grid, int resolution) {
+  const int n = grid.resolution;
+  if (resolution < n || resolution % n != 0) throw std::invalid_argument("cannot upsample");
+  if (resolution == n) return grid;
+  const int f = resolution / n;
+  Grid out(resolution, grid.channels, grid.groups);
+  for (int g = 0; g < grid.groups; ++g)
+    for (int c = 0; c < grid.channels; ++c)
+      for (int y = 0; y < resolution; ++y)
+        for (int x = 0; x < resolution; ++x)
+          out.at(g, c, x, y) = grid.at(g, c, x / f, y / f);
+  return out;
+}
+
 Grid combine_groups(const Grid& grid, std::span<const double> weights) {
   std::size_t used = weights.size();
   while (used > 0 && weights[used - 1] == 0)

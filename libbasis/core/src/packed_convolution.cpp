@@ -138,9 +138,14 @@ GroupConvolution scalar(const PackedTreeView& a, const PackedTreeView& b, int gr
   for (double& bound : sums.bound)
     bound += floor;
   GroupConvolution result;
-  for (int g = 0; g < groups; ++g)
-    result.value[g] = channels_to_rgb(sums.value[g], channels);
-  result.bound = channels_to_rgb(sums.bound, channels);
+  for (int c = 0; c < 3; ++c) {
+    const int lane = channels == 1 ? 0 : c;
+    const CertifiedFloat group0 = certified_float(sums.value[0][lane], sums.bound[lane]);
+    result.value[0][c] = group0.value;
+    result.bound[c] = group0.bound;
+    for (int g = 1; g < groups; ++g)
+      result.value[g][c] = certified_float(sums.value[g][lane], 0).value;
+  }
   return result;
 }
 
@@ -233,7 +238,8 @@ struct DescentConstants {
   // factor that brings a texel word's step to its bound, half the step, in bound units.
   bool shared_a, shared_b;
   float shared_bound_a, shared_bound_b;
-  float value_scale, bound_scale;
+  // In double: two trees' scales multiply beyond the floats' range (2^-252 to 2^235).
+  double value_scale, bound_scale;
   float values_in_bound_units, linf_a_scale, linf_b_scale;
   // Weighted descents: a stands for sum_g weight[g] a_g; total_weight = sum_g |weight[g]|.
   float weight[3] = {1, 0, 0}, abs_weight[3] = {1, 0, 0};
@@ -288,9 +294,9 @@ struct DescentConstants {
     // largest-deviation alternatives are brought to the latter's units.
     const TreeScales& sa = ta.scales();
     const TreeScales& sb = tb.scales();
-    bound_scale = sa.bound_scale * sb.bound_scale;
-    value_scale = sa.value_scale * sb.value_scale;
-    values_in_bound_units = value_scale / bound_scale;
+    bound_scale = double(sa.bound_scale) * sb.bound_scale;
+    value_scale = double(sa.value_scale) * sb.value_scale;
+    values_in_bound_units = float(value_scale / bound_scale);
     linf_a_scale = sb.value_scale / sb.bound_scale;
     linf_b_scale = sa.value_scale / sa.bound_scale;
     per_product = float((accuracy / 2 - kRoundingPerMagnitude) * values_in_bound_units);
@@ -941,16 +947,17 @@ GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, 
   GroupConvolution result;
   for (int c = 0; c < 3; ++c) {
     const int lane = C == 1 ? 0 : c;
-    for (int g = 0; g < GA; ++g)
-      result.value[g][c] = sums.value_of(g, lane) * k.value_scale;
-    if constexpr (!kBound) {
-      result.bound[c] = std::numeric_limits<float>::infinity();
-      continue;
-    }
-    result.bound[c] =
-        float(double(sums.bound_of(lane)) * k.bound_scale +
+    double bound = std::numeric_limits<double>::infinity();
+    if constexpr (kBound)
+      bound = double(sums.bound_of(lane)) * k.bound_scale +
               (kRoundingPerMagnitude * sums.magnitude_of(lane) + kRoundingFloor * k.total_weight) *
-                  k.value_scale);
+                  k.value_scale;
+    const CertifiedFloat group0 =
+        certified_float(double(sums.value_of(0, lane)) * k.value_scale, bound);
+    result.value[0][c] = group0.value;
+    result.bound[c] = group0.bound;
+    for (int g = 1; g < GA; ++g)
+      result.value[g][c] = certified_float(double(sums.value_of(g, lane)) * k.value_scale, 0).value;
   }
   return result;
 }

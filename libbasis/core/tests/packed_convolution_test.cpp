@@ -25,6 +25,14 @@ double relative_gap(double a, double b) {
   return std::abs(a - b) / std::max({std::abs(a), std::abs(b), 1e-30});
 }
 
+// Whether two paths' bounds of channel c agree: within 1e-5 relative, once each has taken in
+// its own value's rounding to a float (certified_float), at most 2^-24 of the value.
+bool bounds_agree(const Convolution& x, const Convolution& y, int c) {
+  return std::abs(double(x.bound[c]) - y.bound[c]) <=
+         1e-5 * std::max(x.bound[c], y.bound[c]) +
+             0x1p-24 * (std::abs(double(x.value[c])) + std::abs(double(y.value[c])));
+}
+
 // Channel c of the integral over [0,1]^2 of the product of group 0 of two grids (a grey grid
 // counting for every channel), in double: at the finer resolution, each texel of the coarser
 // repeated over the finer's texels it covers.
@@ -96,7 +104,7 @@ TEST_P(PackedConvolution, WithinTheBoundOfTheTexelsAndHalfPrecisionOfTheTrees) {
                   << what << " bound " << simd.bound[c];
               // SIMD sums in float, the scalar descent in double: up to 16,384 pairs at 128^2.
               EXPECT_LT(relative_gap(simd.value[c], scalar.value[c]), 2e-6) << what;
-              EXPECT_LT(relative_gap(simd.bound[c], scalar.bound[c]), 1e-5) << what;
+              EXPECT_TRUE(bounds_agree(simd, scalar, c)) << what;
               // The same value to the bit, and nothing certified (the scalar descent computes
               // its bound and drops it).
               EXPECT_EQ(alone.value[c], simd.value[c]) << what;
@@ -240,7 +248,7 @@ TEST(PackedConvolution, WeightedGroupsLieWithinTheirBoundOfTheTexels) {
                         << what << " bound " << r.bound[c];
                   if (accuracy == 0) {
                     EXPECT_LT(std::abs(simd.value[c] - scalar.value[c]), 1e-6 * magnitude) << what;
-                    EXPECT_LT(relative_gap(simd.bound[c], scalar.bound[c]), 1e-5) << what;
+                    EXPECT_TRUE(bounds_agree(simd, scalar, c)) << what;
                   }
                 }
               }
@@ -291,7 +299,7 @@ TEST(PackedConvolution, LevelsLargerThanTheQueueAreDescendedInFull) {
       EXPECT_LT(relative_gap(simd.value[c], texels), 1e-3) << n;
       // Float sums of up to 65,536 products against double ones.
       EXPECT_LT(relative_gap(simd.value[c], scalar.value[c]), 1e-5) << n;
-      EXPECT_LT(relative_gap(simd.bound[c], scalar.bound[c]), 1e-5) << n;
+      EXPECT_TRUE(bounds_agree(simd, scalar, c)) << n;
     }
   }
 }
@@ -361,6 +369,49 @@ TEST(PackedConvolution, AnAccuracyTargetNeedsTheBound) {
     EXPECT_THROW(convolve_weighted(a.view(), w, b.view(), target), std::invalid_argument);
   }
   EXPECT_NO_THROW(convolve(a.view(), b.view(), {.accuracy = 1}));
+}
+
+// Trees of values far from 1 whose products leave the normal floats: the value is what the
+// double product of the grids gives, within a bound that is not zero and holds, in the SIMD and
+// scalar paths; beyond the largest float, std::overflow_error rather than infinity.
+TEST(PackedConvolution, ResultsBelowTheNormalFloatsKeepABoundThatHolds) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> unit(0, 1);
+  for (const double scale : {1e-19, 1e-21, 1e-22}) {
+    Grid ga(16, 3), gb(16, 3);
+    for (float& t : ga.texels)
+      t = float(unit(rng) * scale);
+    for (float& t : gb.texels)
+      t = float(unit(rng) * scale);
+    const PackedTree a = pack(project(ga, {.tolerance = 0.05}));
+    const PackedTree b = pack(project(gb, {.tolerance = 0.05}));
+    for (const Convolution& r : {convolve(a.view(), b.view()), convolve_scalar(a.view(), b.view())})
+      for (int c = 0; c < 3; ++c) {
+        const double exact = grid_product(ga, gb, c);
+        EXPECT_GT(r.bound[c], 0) << scale;
+        EXPECT_LE(std::abs(double(r.value[c]) - exact), double(r.bound[c])) << scale << " " << c;
+      }
+  }
+  Grid huge(16, 1);
+  for (float& t : huge.texels)
+    t = 1e20f * (1 + unit(rng));
+  const PackedTree h = pack(project(huge, {.tolerance = 0.05}));
+  EXPECT_THROW(convolve(h.view(), h.view()), std::overflow_error);
+  EXPECT_THROW(convolve_scalar(h.view(), h.view()), std::overflow_error);
+  EXPECT_THROW(convolve(h.view(), h.view(), {.bound = false}), std::overflow_error);
+}
+
+// Floats from doubles: the value rounds to nearest, the bound rounds up and covers it.
+TEST(CertifiedFloat, RoundsTheBoundUpAndCoversTheValuesRounding) {
+  for (const double value : {1.0 / 3, 2.455e-39, 7e-46, -1e-44, 3e38}) {
+    const CertifiedFloat f = certified_float(value, 1e-50);
+    EXPECT_LE(std::abs(double(f.value) - value), double(f.bound)) << value;
+    EXPECT_GE(double(f.bound), 1e-50) << value;
+  }
+  EXPECT_EQ(certified_float(1, INFINITY).bound, INFINITY);
+  EXPECT_THROW(certified_float(4e38, 0), std::overflow_error);
+  EXPECT_THROW(certified_float(1, 4e38), std::overflow_error);
+  EXPECT_THROW(certified_float(std::nan(""), 0), std::overflow_error);
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #include "basis/lighting/shading.h"
 
 #include <algorithm>
+#include <cmath>
 #include <numbers>
 #include <optional>
 #include <stdexcept>
@@ -16,6 +17,14 @@ Tilt capture_tilt(const CaptureSetView& captures, std::size_t k, const Vec3& nor
   if (local.z() <= -1 + 1e-12)
     throw std::invalid_argument("the shading normal is opposite the capture's normal");
   return tilt_to(local);
+}
+
+double largest_tilt_degrees(const CaptureSetView& captures, const Vec3& normal) {
+  const Vec3 unit = normal.normalized();
+  double smallest_cosine = 1;
+  for (const Vec3& n : captures.normals)
+    smallest_cosine = std::min(smallest_cosine, n.normalized().dot(unit));
+  return std::acos(std::clamp(smallest_cosine, -1.0, 1.0)) * 180 / std::numbers::pi;
 }
 
 namespace {

@@ -70,8 +70,19 @@ struct ConvolutionOptions {
   bool bound = true;
 };
 
+// A result computed in double as a float value and a float bound that still holds for it: the
+// value rounded to nearest, the bound plus that rounding, rounded up (so that results below the
+// normal floats keep a bound that is not zero). std::overflow_error when the value or the bound
+// lies beyond the largest float (an infinite bound, nothing certified, passes through).
+struct CertifiedFloat {
+  float value = 0;
+  float bound = 0;
+};
+CertifiedFloat certified_float(double value, double bound);
+
 // The integral over [0,1]^2 of a * b (group 0 of both), as convolve() does for float trees, on
-// packed trees. The bound adds, on every quadrant where the descent stops,
+// packed trees. Results beyond the floats throw std::overflow_error (certified_float). The bound
+// adds, on every quadrant where the descent stops,
 //   area * min(sa sb, [a linf] ea |b|, [b linf] eb |a|),
 // sa, sb the quadrants' RMS bounds (both kinds bound the RMS deviation; Cauchy-Schwarz bounds
 // the integral of (A - a)(B - b) by their product), ea, eb their largest-deviation bounds

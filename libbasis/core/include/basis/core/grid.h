@@ -37,6 +37,11 @@ struct Grid {
 // averages, all groups). Throws std::invalid_argument otherwise.
 Grid downsample(const Grid& grid, int resolution);
 
+// The grid at a finer resolution that its own divides, each texel repeated over the texels it
+// covers: the same piecewise-constant function (all groups). Throws std::invalid_argument
+// otherwise.
+Grid upsample(const Grid& grid, int resolution);
+
 // The grid's groups combined into one: sum over g < weights.size() of weights[g] times group g
 // (trailing zero weights ignored; std::invalid_argument when a nonzero weight has no group).
 Grid combine_groups(const Grid& grid, std::span<const double> weights);

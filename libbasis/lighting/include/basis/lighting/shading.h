@@ -41,6 +41,13 @@ Rgb reflect_lights(std::span<const DirectionalLight> lights, const Frame& record
 // The tilt of a surface of normal `normal` (world) against capture k's frame.
 Tilt capture_tilt(const CaptureSetView& captures, std::size_t k, const Vec3& normal);
 
+// The tilt up to which lookups at another normal are supported: compensated, within about 2 %
+// at 10 degrees (README). Beyond it they still run, but the tilt's error grows fast and no
+// bound covers it (the bound is the lookup's, table against capture).
+inline constexpr double kSupportedTiltDegrees = 10;
+// The largest angle, in degrees, between `normal` (world) and the captures' normals.
+double largest_tilt_degrees(const CaptureSetView& captures, const Vec3& normal);
+
 // Reflected radiance (pi included) at capture k, with the certified bound of the lookup: the
 // table convolved with the capture's tree, plus f(wi, wo) E wi.z for each of its directional
 // lights. With --normal the lights turn with the surface exactly (no compensation needed;
