@@ -54,6 +54,14 @@ struct Table {
   std::optional<Brdf> brdf;            // when tabulated here: the BRDF itself
   std::string source;      // the spec file it was tabulated from (its provenance's, if loaded)
   std::string parameters;  // the options it was tabulated with, as provenance JSON
+  // When loaded: the BRDF rebuilt from its spec the first time lights need it (shared by the
+  // table's copies; only touched with the GIL held), or why it could not be.
+  struct Rebuilt {
+    bool tried = false;
+    std::optional<Brdf> brdf;
+    std::string problem;
+  };
+  std::shared_ptr<Rebuilt> rebuilt = std::make_shared<Rebuilt>();
 };
 
 struct Captures {
@@ -211,16 +219,24 @@ Table own(BrdfTable table, const ProjectionOptions& projection) {
   return {held, held->view(), held->model, held->spec, projection, nullptr, std::nullopt, "", "{}"};
 }
 
-// The BRDF that shades a capture set's lights: the one the table tabulates, from its spec;
-// none (the table's texels then) when the spec cannot be rebuilt, as for a measured BRDF whose
-// data file moved.
-std::optional<Brdf> table_brdf_of(const Table& table) {
-  if (table.brdf) return table.brdf;
-  try {
-    if (table.file) return table_brdf(*table.file).brdf;
-  } catch (const FileError&) {
+// The BRDF that shades a capture set's lights: the one the table tabulates, rebuilt from its
+// spec once per table; none (the table's texels then, with a RuntimeWarning as qtconvolve's)
+// when the spec cannot be rebuilt, as for a measured BRDF whose data file moved. Needs the GIL.
+const Brdf* table_brdf_of(const Table& table) {
+  if (table.brdf) return &*table.brdf;
+  Table::Rebuilt& rebuilt = *table.rebuilt;
+  if (!rebuilt.tried && table.file) {
+    rebuilt.tried = true;
+    try {
+      rebuilt.brdf = table_brdf(*table.file).brdf;
+    } catch (const FileError& e) {
+      rebuilt.problem = std::string(e.what()) + "; directional lights use the table's texels";
+    }
   }
-  return std::nullopt;
+  if (!rebuilt.problem.empty() &&
+      PyErr_WarnEx(PyExc_RuntimeWarning, rebuilt.problem.c_str(), 1) != 0)
+    throw py::error_already_set();
+  return rebuilt.brdf ? &*rebuilt.brdf : nullptr;
 }
 
 // The threads of a call's arena: 0 for every core, else 1..1024 as the tools take them.
@@ -462,14 +478,25 @@ PYBIND11_MODULE(basis, m) {
           "provenance",
           [](const File& f) {
             const Provenance p = f.file->provenance();
+            // File names need not be UTF-8: decoded as os.fsdecode does, so that they round-trip.
+            auto fs_text = [](const std::string& text) {
+              PyObject* decoded =
+                  PyUnicode_DecodeFSDefaultAndSize(text.data(), Py_ssize_t(text.size()));
+              if (!decoded) throw py::error_already_set();
+              return py::reinterpret_steal<py::str>(decoded);
+            };
             py::dict d;
-            d["tool"] = p.tool;
-            d["tool_version"] = p.tool_version;
-            d["parameters"] = p.parameters;
-            d["sources"] = p.sources;
+            d["tool"] = fs_text(p.tool);
+            d["tool_version"] = fs_text(p.tool_version);
+            d["parameters"] = fs_text(p.parameters);
+            py::list sources;
+            for (const std::string& source : p.sources)
+              sources.append(fs_text(source));
+            d["sources"] = sources;
             return d;
           },
-          "What made the file: tool, tool_version, parameters (JSON text) and sources (files).")
+          "What made the file: tool, tool_version, parameters (JSON text) and sources (files; "
+          "names that are not UTF-8 decoded as os.fsdecode does).")
       .def(
           "tree",
           [](const File& f) {
@@ -644,10 +671,11 @@ PYBIND11_MODULE(basis, m) {
       "shade",
       [](const Table& table, const Captures& captures, const std::array<double, 3>& wo,
          double accuracy, const std::string& interpolation, bool bound) {
-        const std::optional<Brdf> brdf = table_brdf_of(table);
         ShadingOptions options;
         options.wo = to_direction(to_vec3(wo), "wo");
-        options.light_brdf = brdf ? &*brdf : nullptr;
+        // Only lights need the BRDF: it is rebuilt (a measured one's data file read) only then.
+        const Brdf* brdf = captures.view.lights.empty() ? nullptr : table_brdf_of(table);
+        options.light_brdf = brdf;
         options.convolution.accuracy = accuracy;
         options.convolution.bound = bound;
         options.interpolation = interpolation_of(interpolation);
@@ -675,8 +703,9 @@ PYBIND11_MODULE(basis, m) {
       py::arg("table"), py::arg("captures"), py::arg("wo") = std::array<double, 3>{0, 0, 1},
       py::arg("accuracy") = 0.0, py::arg("interpolation") = "hermite", py::arg("bound") = true,
       "Reflected radiance towards wo (each capture's frame) at every capture, with the lights "
-      "it keeps apart shaded by the table's BRDF (rebuilt from its spec; the table's texels "
-      "when that fails): (values, bounds), N x 3 arrays. What qtconvolve TABLE CAPTURES "
+      "it keeps apart shaded by the table's BRDF (rebuilt from its spec once per table, when "
+      "there are lights; the table's texels, with a RuntimeWarning, when that fails): (values, "
+      "bounds), N x 3 arrays. What qtconvolve TABLE CAPTURES "
       "prints. bound=False: the same values, faster, and bounds of inf (qtconvolve "
       "--no-bound).");
 

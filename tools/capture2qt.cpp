@@ -153,6 +153,10 @@ int main(int argc, char** argv) {
 
   return basis::cli::run(app, argc, argv, [&] {
     using basis::cli::UsageError;
+    basis::cli::check_outputs_spare_inputs({{"-o", output}}, {{"--env", env_path},
+                                                              {"--scene", scene_path},
+                                                              {"--points", points_path},
+                                                              {"--image", image_path}});
     if (!basis::is_valid_resolution(res))
       throw UsageError("--res must be a power of two from 2 to 512, got " + std::to_string(res));
     const int strata = int(std::lround(std::sqrt(spp)));
@@ -298,10 +302,7 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "capture2qt: making shard %s: %s\n", shard_text.c_str(), why->c_str());
     }
     // The output's folder is there before any work (or any --dump image) is done.
-    const std::filesystem::path output_folder =
-        std::filesystem::absolute(std::filesystem::path(output)).parent_path();
-    if (!std::filesystem::is_directory(output_folder))
-      throw basis::FileError(output + ": no such folder");
+    basis::cli::check_output_place(output);
     DumpedImages dumped;
     if (!dump.empty()) {
       if (!std::filesystem::is_directory(dump))

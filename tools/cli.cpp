@@ -5,6 +5,7 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <limits>
 #include <sstream>
@@ -170,6 +171,43 @@ Vec3 parse_triple(const std::string& text, const std::string& option) {
   for (double x : v)
     if (!std::isfinite(x)) throw UsageError(option + " holds a non-finite number: '" + text + "'");
   return v;
+}
+
+namespace {
+
+// Whether two paths name one file: the same file when both exist, else the same absolute path.
+bool same_file(const std::string& x, const std::string& y) {
+  std::error_code error;
+  if (std::filesystem::exists(x, error) && std::filesystem::exists(y, error))
+    return std::filesystem::equivalent(x, y, error) && !error;
+  return std::filesystem::weakly_canonical(x, error) == std::filesystem::weakly_canonical(y, error);
+}
+
+}  // namespace
+
+void check_outputs_spare_inputs(const std::vector<NamedPath>& outputs,
+                                const std::vector<NamedPath>& inputs) {
+  for (std::size_t k = 0; k < outputs.size(); ++k) {
+    const NamedPath& out = outputs[k];
+    if (out.path.empty()) continue;
+    for (const NamedPath& in : inputs)
+      if (!in.path.empty() && same_file(out.path, in.path))
+        throw UsageError(out.option + " " + out.path + " is the file " + in.option +
+                         " reads: writing it would destroy the input");
+    for (std::size_t j = 0; j < k; ++j)
+      if (!outputs[j].path.empty() && same_file(out.path, outputs[j].path))
+        throw UsageError(outputs[j].option + " and " + out.option + " name the same file, " +
+                         out.path);
+  }
+}
+
+void check_output_place(const std::string& path) {
+  if (path.empty()) return;
+  std::error_code error;
+  if (std::filesystem::is_directory(path, error))
+    throw FileError(path + ": is a folder; name the file to write");
+  const std::filesystem::path folder = std::filesystem::absolute(path, error).parent_path();
+  if (!std::filesystem::is_directory(folder, error)) throw FileError(path + ": no such folder");
 }
 
 Vec3 parse_direction(const std::string& text, const std::string& option) {

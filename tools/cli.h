@@ -10,6 +10,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "basis/core/shard.h"
 #include "basis/core/task.h"
@@ -71,6 +72,21 @@ Shard parse_shard_option(const std::string& text, std::uint64_t total, const std
 CLI::Validator finite_number();
 CLI::Validator non_negative_number();
 CLI::Validator positive_number();
+
+// A file a tool reads or writes, with the flag or argument that named it.
+struct NamedPath {
+  std::string option;
+  std::string path;
+};
+// Throws UsageError when an output is the same file as an input (links and relative paths
+// resolved, for files that exist), which writing it would destroy, or when two outputs name
+// the same file, so that one would silently replace the other. Empty paths are skipped.
+void check_outputs_spare_inputs(const std::vector<NamedPath>& outputs,
+                                const std::vector<NamedPath>& inputs);
+
+// Throws FileError naming `path` when an output cannot go there, checked before any work is
+// done: its folder is missing, or it is a folder itself. Empty paths are skipped.
+void check_output_place(const std::string& path);
 
 // Parses "X,Y,Z" into three finite numbers; throws UsageError naming the option.
 Vec3 parse_triple(const std::string& text, const std::string& option);

@@ -302,6 +302,10 @@ int main(int argc, char** argv) {
   return basis::cli::run(app, argc, argv, [&] {
     using basis::QtKind;
     if (json && csv) throw UsageError("--json and --csv exclude each other");
+    basis::cli::check_outputs_spare_inputs({{"-o", output}, {"--png", png}},
+                                           {{"a", a_path}, {"b", b_path}});
+    basis::cli::check_output_place(output);
+    basis::cli::check_output_place(png);
     if (no_bound && accuracy > 0)
       throw UsageError("--accuracy stops on the certified bound: not with --no-bound");
     basis::CaptureSource a = basis::CaptureSource::open(a_path);
@@ -442,8 +446,8 @@ int main(int argc, char** argv) {
       }
       // Said once, after the first block that tilts a capture past the supported tilt.
       if (shading.normal && !warned_tilt && shades_captures) {
-        const double tilt = basis::largest_tilt_degrees(convolution.shaded_captures(),
-                                                        *shading.normal);
+        const double tilt =
+            basis::largest_tilt_degrees(convolution.shaded_captures(), *shading.normal);
         if (tilt > basis::kSupportedTiltDegrees) {
           warned_tilt = true;
           progress.print_line(printed(

@@ -26,6 +26,11 @@ void describe_manifest(const std::string& input, bool json, const std::string& p
                        int group, int size) {
   using basis::cli::UsageError;
   const basis::CaptureManifest manifest = basis::read_manifest(input);
+  // Checked before anything is printed.
+  const std::uint64_t k = index < 0 ? 0 : std::uint64_t(index);
+  if (k >= manifest.total_points)
+    throw UsageError("--index " + std::to_string(index) + " but the set holds " +
+                     std::to_string(manifest.total_points) + " captures");
   {
     basis::cli::ProgressBar progress("qtinfo", false);
     const std::string text = json ? basis::summary_json(manifest, progress.control()) + "\n"
@@ -33,14 +38,7 @@ void describe_manifest(const std::string& input, bool json, const std::string& p
     progress.finish();
     std::cout << text;
   }
-  if (png.empty()) {
-    if (index >= 0) throw UsageError("--index chooses the capture drawn by --png");
-    return;
-  }
-  const std::uint64_t k = index < 0 ? 0 : std::uint64_t(index);
-  if (k >= manifest.total_points)
-    throw UsageError("--index " + std::to_string(index) + " but the set holds " +
-                     std::to_string(manifest.total_points) + " captures");
+  if (png.empty()) return;
   basis::CaptureSource source = basis::CaptureSource::open(input);
   const std::size_t shard = source.shard_of(k);
   const basis::QtFile& file = source.shard(shard);
@@ -77,7 +75,8 @@ int main(int argc, char** argv) {
   app.add_option("--entry", entry,
                  "BRDF table entry I,J to draw (parabolic grid indices; default: the entry "
                  "nearest the normal)");
-  app.add_option("--index", index, "capture (or tree) index to draw; default 0");
+  app.add_option("--index", index, "capture (or tree) index to draw; default 0")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--group", group,
                  "what to draw of a BRDF table entry: 0 f, 1 and 2 its tilt derivatives about "
                  "the tangent and the bitangent")
@@ -86,42 +85,59 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", basis::kVersion);
 
   return basis::cli::run(app, argc, argv, [&] {
+    using basis::cli::UsageError;
+    basis::cli::check_outputs_spare_inputs({{"--png", png}}, {{"file", input}});
+    if (png.empty() && (!entry.empty() || index >= 0 || group > 0))
+      throw UsageError("--entry, --index and --group choose the tree drawn by --png");
+    if (!entry.empty() && index >= 0)
+      throw UsageError(
+          "--entry (a table's entry) and --index (a capture or tree) exclude each "
+          "other");
     if (basis::is_manifest(input)) return describe_manifest(input, json, png, index, group, size);
     const basis::QtFile file = basis::QtFile::load(input);
-    std::cout << (json ? basis::summary_json(file) + "\n" : basis::summary_text(file));
-    if (png.empty()) {
-      if (!entry.empty() || index >= 0)
-        throw basis::cli::UsageError("--entry and --index choose the tree drawn by --png");
-      return;
-    }
+    // The tree to draw is chosen, and checked, before anything is printed.
     basis::PackedTreeView tree = file.tree();
     if (file.kind() == basis::QtKind::brdf_table) {
+      if (index >= 0)
+        throw UsageError(
+            "--index picks a capture or a tree; a table's entries are picked with "
+            "--entry I,J");
       const basis::BrdfTableView table = file.brdf_table();
       int i = (table.wo_resolution - 1) / 2, j = i;
       if (!entry.empty()) {
         char comma = 0;
         std::istringstream in(entry);
         if (!(in >> i >> comma >> j) || comma != ',' || !(in >> std::ws).eof())
-          throw basis::cli::UsageError("--entry expects I,J, got '" + entry + "'");
+          throw UsageError("--entry expects I,J, got '" + entry + "'");
       }
       if (i < 0 || j < 0 || i >= table.wo_resolution || j >= table.wo_resolution)
-        throw basis::cli::UsageError("--entry " + std::to_string(i) + "," + std::to_string(j) +
-                                     " outside the " + std::to_string(table.wo_resolution) + " x " +
-                                     std::to_string(table.wo_resolution) + " table");
+        throw UsageError("--entry " + std::to_string(i) + "," + std::to_string(j) +
+                         " outside the " + std::to_string(table.wo_resolution) + " x " +
+                         std::to_string(table.wo_resolution) + " table");
       if (group > 0 && !table.has_tilt())
-        throw basis::cli::UsageError("--group " + std::to_string(group) +
-                                     " but the table holds no tilt derivatives");
+        throw UsageError("--group " + std::to_string(group) +
+                         " but the table holds no tilt derivatives");
       tree = group > 0 ? table.tilt_entry(i, j) : table.entry(i, j);
       if (group > 0) --group;  // tilt trees hold the two derivatives as groups 0 and 1
-    } else if (index >= 0) {
-      if (std::size_t(index) >= file.trees().size())
-        throw basis::cli::UsageError("--index " + std::to_string(index) + " but the file holds " +
-                                     std::to_string(file.trees().size()) + " trees");
-      tree = file.trees().tree(std::size_t(index));
+    } else {
+      if (!entry.empty())
+        throw UsageError(
+            "--entry picks a BRDF table's entry; this file holds " +
+            std::string(file.kind() == basis::QtKind::capture_set ? "captures" : "trees") +
+            ": pick one with --index");
+      if (index >= 0) {
+        if (std::size_t(index) >= file.trees().size())
+          throw UsageError("--index " + std::to_string(index) + " but the file holds " +
+                           std::to_string(file.trees().size()) + " trees");
+        tree = file.trees().tree(std::size_t(index));
+      }
     }
     if (group >= tree.shape().groups)
-      throw basis::cli::UsageError("--group " + std::to_string(group) + " but the trees hold " +
-                                   std::to_string(tree.shape().groups) + " groups");
+      throw UsageError("--group " + std::to_string(group) + " but the trees hold " +
+                       std::to_string(tree.shape().groups) + " group" +
+                       (tree.shape().groups == 1 ? "" : "s"));
+    std::cout << (json ? basis::summary_json(file) + "\n" : basis::summary_text(file));
+    if (png.empty()) return;
     // A capture's directional lights are circled where they fall.
     std::vector<basis::Vec2> markers;
     if (file.kind() == basis::QtKind::capture_set)

@@ -87,6 +87,12 @@ int main(int argc, char** argv) {
     using basis::cli::UsageError;
     if (output.empty() && manifest_output.empty())
       throw UsageError("say what to write: -o OUT.qt, --manifest OUT.qtm, or both");
+    std::vector<basis::cli::NamedPath> read;
+    for (const std::string& path : inputs)
+      read.push_back({"inputs", path});
+    basis::cli::check_outputs_spare_inputs({{"-o", output}, {"--manifest", manifest_output}}, read);
+    basis::cli::check_output_place(output);
+    basis::cli::check_output_place(manifest_output);
     basis::cli::ProgressBar progress("qtmerge", quiet);
     const basis::TaskControl& control = progress.control();
     std::vector<basis::QtFile> manifest_shards;

@@ -139,6 +139,9 @@ int main(int argc, char** argv) {
     if (std::filesystem::path(output).extension() != ".exr")
       throw UsageError("-o names an EXR file (.exr), got " + output);
     const std::string png = std::filesystem::path(output).replace_extension(".png").string();
+    basis::cli::check_outputs_spare_inputs({{"-o", output}, {"its PNG", png}},
+                                           {{"scene", scene_path}, {"--compare", compare}});
+    basis::cli::check_output_place(output);
 
     const basis::SceneFile file = basis::read_scene_file(scene_path);
     basis::Image reference;

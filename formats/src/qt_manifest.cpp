@@ -10,6 +10,7 @@
 #include <optional>
 #include <sstream>
 
+#include "basis/core/file_error.h"
 #include "basis/io/atomic_file.h"
 #include "basis/io/checksum.h"
 #include "basis/io/json_fields.h"
@@ -43,9 +44,8 @@ std::uint64_t whole_number(const JsonFields& fields, const json& object, const s
 }
 
 std::string read_text(const std::string& path) {
+  check_regular_file(path, "a manifest");
   std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    throw FileError(path + ": is a directory, not a manifest");
   const std::uintmax_t size = std::filesystem::file_size(path, ec);
   if (ec) throw FileError(path + ": " + ec.message());
   if (size > kMaxManifestBytes)

@@ -330,3 +330,48 @@ def test_a_capture_set_written_back_keeps_its_provenance(made_by_tools, tmp_path
     basis.write(tmp_path / "made.qt", made)
     sources = basis.load(tmp_path / "made.qt").provenance["sources"]
     assert os.path.join(SOURCE, "data", "scene.obj") in sources
+
+
+def test_a_measured_table_whose_data_is_gone_warns_and_shades_from_its_texels(made_by_tools,
+                                                                                tmp_path):
+    """A table of a MERL file (written here: constant samples) shades its captures' lights with
+    the BRDF rebuilt from its spec, reading the data file once per table and only when there are
+    lights; once the file is gone, with a RuntimeWarning as qtconvolve's, from its texels."""
+    d, light = made_by_tools
+    header = np.array([90, 90, 180], np.int32).tobytes()
+    (tmp_path / "m.binary").write_bytes(header + np.full(3 * 90 * 90 * 180, 40.0).tobytes())
+    (tmp_path / "m.json").write_text('{"model": "merl", "file": "m.binary"}')
+    tool("brdf2qt", "m.json", "--wo-res", 5, "--wi-res", 8, "-q", cwd=tmp_path)
+    table = basis.load(str(tmp_path / "m.qt")).table()
+    captures = basis.load(str(d / "captures.qt")).captures()
+    if not any(len(captures.lights(k)) for k in range(len(captures))):
+        pytest.skip("the captures keep no lights apart (no sun map): nothing to shade them with")
+    cwd = os.getcwd()
+    os.chdir(tmp_path)  # the spec's data file is found as brdf2qt was given it
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            with_data, _ = basis.shade(table, captures)
+        os.remove("m.binary")
+        # Read once per table: the same table shades as before, the file gone or not.
+        again, _ = basis.shade(table, captures)
+        np.testing.assert_array_equal(again, with_data)
+        reloaded = basis.load(str(tmp_path / "m.qt")).table()
+        with pytest.warns(RuntimeWarning, match="m.binary.*directional lights use the table's"):
+            from_texels, _ = basis.shade(reloaded, captures)
+    finally:
+        os.chdir(cwd)
+    expected, _ = qtconvolve_json(tmp_path / "m.qt", d / "captures.qt", "--lights", "table")
+    np.testing.assert_allclose(from_texels, expected, rtol=1e-5)
+
+
+def test_provenance_of_a_source_whose_name_is_not_utf8(tmp_path):
+    """A spec named with bytes that are not UTF-8: the table's provenance names it as
+    os.fsdecode does, and the name leads back to the file."""
+    name = os.fsencode(str(tmp_path)) + b"/\xff\xfe.json"
+    with open(name, "wb") as f:
+        f.write(SPEC.encode())
+    table = basis.tabulate(basis.Brdf.from_file(name), wo_res=3, wi_res=8, tilt=False)
+    basis.write(str(tmp_path / "t.qt"), table)
+    sources = basis.load(str(tmp_path / "t.qt")).provenance["sources"]
+    assert [os.fsencode(s) for s in sources] == [name]

@@ -264,12 +264,30 @@ TEST(BadInputMatrix, NumbersThatAreNotFiniteAreBadUsage) {
 }
 
 // A .qt path that is a FIFO is refused at once (it would otherwise wait for a writer).
-TEST(BadInputMatrix, FifosAreNotQtFiles) {
+// Every input that is a FIFO is refused by name at once: no reader waits for a writer (the
+// specs, maps, points, scenes and measured data once did, and only SIGKILL stopped them).
+TEST(BadInputMatrix, FifosAreRefusedNotWaitedOn) {
   TempDir dir;
   write_inputs(dir);
-  ASSERT_EQ(::mkfifo(dir.file("pipe.qt").c_str(), 0600), 0);
-  check(dir, "qtinfo", {{"pipe.qt"}, 1, "pipe.qt"});
-  check(dir, "qtconvolve", {{"ok.qt", "pipe.qt"}, 1, "pipe.qt"});
+  for (const std::string pipe :
+       {"pipe.qt", "pipe.json", "pipe.exr", "pipe.txt", "pipe.obj", "pipe.binary"})
+    ASSERT_EQ(::mkfifo(dir.file(pipe).c_str(), 0600), 0) << pipe;
+  write_text(dir.file("merl.json"), R"({"model": "merl", "file": "pipe.binary"})");
+  check(dir, "qtinfo", {{"pipe.qt"}, 1, "pipe.qt: is not a regular file"});
+  check(dir, "qtconvolve", {{"ok.qt", "pipe.qt"}, 1, "pipe.qt: is not a regular file"});
+  check(dir, "brdf2qt", {{"pipe.json"}, 1, "pipe.json: is not a regular file"});
+  check(dir, "brdf2qt", {{"merl.json"}, 1, "pipe.binary: is not a regular file"});
+  check(dir, "capture2qt",
+        {{"--env", "pipe.exr", "--at", "0,0,0", "-o", "out.qt"}, 1, "pipe.exr: is not a regular"});
+  check(dir, "capture2qt",
+        {{"--env-constant", "1,1,1", "--points", "pipe.txt", "-o", "out.qt"},
+         1,
+         "pipe.txt: is not a regular file"});
+  check(dir, "capture2qt",
+        {{"--env-constant", "1,1,1", "--scene", "pipe.obj", "--sample", "4", "-o", "out.qt"},
+         1,
+         "pipe.obj: is not a regular file"});
+  check(dir, "qtrender", {{"pipe.json", "-o", "out.exr"}, 1, "pipe.json: is not a regular file"});
 }
 
 // File names that are not UTF-8 still give --json output, their bad bytes replaced.
@@ -317,6 +335,66 @@ TEST(BadInputMatrix, UnwritableOutputs) {
   for (const std::string out : {"no/such/folder/x.png", "/proc/basis-test.png"}) {
     check(dir, "qtinfo", {{"ok.qt", "--png", out}, 1, out});
     check(dir, "qtconvolve", {{"ok.qt", "cap.qt", "--png", out}, 1, out});
+  }
+}
+
+// An output that would destroy an input, or another output, is bad usage: exit 2, one line,
+// and the input keeps its bytes. An output that is a folder is refused before any work.
+TEST(BadInputMatrix, OutputsThatWouldDestroyAnInputAreRefused) {
+  TempDir dir;
+  write_inputs(dir);
+  const std::string table = testing::slurp(dir.file("ok.qt"));
+  const std::string spec = testing::slurp(dir.file("ok.json"));
+  check(dir, "brdf2qt", {{"ok.json", "-o", "ok.json"}, 2, "the file spec reads"});
+  check(dir, "brdf2qt", {{"ok.json", "-o", "./sub/../ok.json"}, 2, "the file spec reads"});
+  check(dir, "qtconvolve", {{"ok.qt", "cap.qt", "-o", "ok.qt"}, 2, "the file a reads"});
+  check(dir, "qtconvolve",
+        {{"ok.qt", "cap.qt", "--png", "p.png", "-o", "p.png"}, 2, "name the same file"});
+  check(dir, "qtinfo", {{"cap.qt", "--png", "cap.qt"}, 2, "the file file reads"});
+  check(dir, "qtmerge", {{"shard.0.qt", "-o", "shard.0.qt"}, 2, "the file inputs reads"});
+  check(dir, "capture2qt",
+        {{"--env-constant", "1,1,1", "--points", "ok.json", "-o", "ok.json"},
+         2,
+         "the file --points reads"});
+  EXPECT_EQ(testing::slurp(dir.file("ok.qt")), table);
+  EXPECT_EQ(testing::slurp(dir.file("ok.json")), spec);
+  std::filesystem::create_directory(dir.file("folder"));
+  check(dir, "brdf2qt", {{"ok.json", "-o", "folder"}, 1, "folder: is a folder"});
+  check(dir, "capture2qt",
+        {{"--env-constant", "1,1,1", "--at", "0,0,0", "-o", "folder"}, 1, "folder: is a folder"});
+  check(dir, "brdf2qt", {{"ok.json", "-o", "no/such/folder/x.qt"}, 1, "no such folder"});
+}
+
+// A table block's wi_res that is not a power of two is the spec's error (exit 1, naming the file
+// and the field), not a flag the user never gave.
+TEST(BadInputMatrix, ATableBlocksResolutionIsTheSpecsError) {
+  TempDir dir;
+  write_text(dir.file("tb.json"),
+             R"({"model": "lambert", "albedo": 0.5, "table": {"wi_res": 12, "wo_res": 5}})");
+  check(dir, "brdf2qt",
+        {{"tb.json"}, 1, "tb.json:1: field 'table.wi_res': must be a power of two"});
+}
+
+// qtinfo checks what --png would draw before it prints the summary: a usage error leaves
+// stdout empty.
+TEST(BadInputMatrix, QtinfoChecksItsChoicesBeforePrinting) {
+  TempDir dir;
+  write_inputs(dir);
+  for (const std::vector<std::string>& args :
+       {std::vector<std::string>{"ok.qt", "--json", "--index", "2"},
+        {"ok.qt", "--entry", "1,1"},
+        {"ok.qt", "--png", "x.png", "--index", "0"},
+        {"cap.qt", "--png", "x.png", "--entry", "0,0"},
+        {"cap.qt", "--png", "x.png", "--index", "5"},
+        {"cap.qt", "--png", "x.png", "--index", "-1"},
+        {"cap.qt", "--png", "x.png", "--group", "1"}}) {
+    const auto r = run_tool("qtinfo", args, dir.path());
+    std::string command = "qtinfo";
+    for (const auto& a : args)
+      command += " " + a;
+    EXPECT_EQ(r.status, 2) << command << "\n" << r.err;
+    EXPECT_EQ(r.out, "") << command;
+    EXPECT_EQ(testing::line_count(r.err), 1) << command << "\n" << r.err;
   }
 }
 

@@ -2,10 +2,12 @@
 // naming the file and no image.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <thread>
 
 #include "basis/io/image_file.h"
 #include "support/run_tool.h"
@@ -71,6 +73,18 @@ TEST(QtrenderCli, RendersAnExrAndAPngAndReportsTimesAsJson) {
   EXPECT_LT(c["relmse"].get<double>(), 0.005);
   // The spec's table was cached beside it.
   EXPECT_TRUE(std::filesystem::exists(dir.file("m.table.qt")));
+  // The same render again, a second later and on one thread, gives the same bytes: the images
+  // carry no time of writing (OpenEXR's capDate).
+  std::this_thread::sleep_for(std::chrono::milliseconds(1100));
+  for (const std::string threads : {"1", "2"}) {
+    const auto again = run_tool(
+        "qtrender", {dir.file("s.json"), "-o", dir.file("again" + threads + ".exr"),
+                     "--max-spacing", "0.5", "--min-spacing", "0.5", "--threads", threads, "-q"});
+    ASSERT_EQ(again.status, 0) << again.err;
+    EXPECT_EQ(testing::slurp(dir.file("again" + threads + ".exr")),
+              testing::slurp(dir.file("cache.exr")));
+  }
+  EXPECT_EQ(testing::slurp(dir.file("again1.png")), testing::slurp(dir.file("again2.png")));
 }
 
 TEST(QtrenderCli, BadScenesGetOneLineAndNoImage) {

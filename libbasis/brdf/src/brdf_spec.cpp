@@ -9,6 +9,7 @@
 #include "basis/brdf/merl.h"
 #include "basis/brdf/rgl.h"
 #include "basis/core/file_error.h"
+#include "basis/core/grid.h"
 #include "basis/io/json_fields.h"
 
 namespace basis {
@@ -80,12 +81,15 @@ BrdfSpec parse_brdf_spec(const std::string& text, const std::string& name,
       r.fail("table.wo_res", "must be a whole number");
     if (spec.wi_resolution && double(*spec.wi_resolution) != t["wi_res"].get<double>())
       r.fail("table.wi_res", "must be a whole number");
+    if (spec.wi_resolution && !is_valid_resolution(*spec.wi_resolution))
+      r.fail("table.wi_res",
+             "must be a power of two from 2 to 512, got " + std::to_string(*spec.wi_resolution));
   }
   return spec;
 }
 
 BrdfSpec read_brdf_spec(const std::string& path) {
-  if (std::filesystem::is_directory(path)) throw FileError(path + ": is a directory, not a spec");
+  check_regular_file(path, "a spec");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw FileError(path + ": " + std::strerror(errno));
   std::ostringstream text;

@@ -39,7 +39,7 @@ MerlBrdf::MerlBrdf(std::vector<double> samples) : samples_(std::move(samples)) {
 }
 
 std::shared_ptr<const MerlBrdf> MerlBrdf::read(const std::string& path) {
-  if (std::filesystem::is_directory(path)) throw FileError(path + ": is a directory");
+  check_regular_file(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw FileError(path + ": " + std::strerror(errno));
   // A MERL file has one size: read at most one byte more to see whether it is longer.

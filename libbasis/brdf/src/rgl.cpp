@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "basis/core/file_error.h"
 #include "basis/core/hemisphere.h"
 #include "tensor_file.h"
 #include "warp2d.h"
@@ -106,8 +107,8 @@ RglBrdf::RglBrdf(std::unique_ptr<const Tables> tables) : tables_(std::move(table
 RglBrdf::~RglBrdf() = default;
 
 std::shared_ptr<const RglBrdf> RglBrdf::read(const std::string& path) {
+  check_regular_file(path);
   std::error_code error;
-  if (std::filesystem::is_directory(path, error)) throw FileError(path + ": is a directory");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw FileError(path + ": " + std::strerror(errno));
   const std::uintmax_t size = std::filesystem::file_size(path, error);

@@ -43,8 +43,10 @@ std::string write(const std::string& path, const std::string& temp_path, int wid
   if (!output) return one_line(OIIO::geterror());
   const std::string format = output->format_name();
   const bool is_float = format == "openexr" || format == "hdr";
-  const OIIO::ImageSpec spec(width, height, channels,
-                             is_float ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::UINT8);
+  OIIO::ImageSpec spec(width, height, channels,
+                       is_float ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::UINT8);
+  // No time of writing in the header (OpenEXR's capDate): the same image gives the same bytes.
+  spec.attribute("DateTime", "");
   if (!output->open(temp_path, spec) || !output->write_image(OIIO::TypeDesc::FLOAT, pixels) ||
       !output->close())
     return one_line(output->geterror());

@@ -1,5 +1,6 @@
 #include "basis/io/image_file.h"
 
+#include "basis/core/file_error.h"
 #include "basis/core/version.h"
 #include "basis/io/atomic_file.h"
 #include "image_codec.h"
@@ -124,9 +125,7 @@ const image_codec::Functions& codec(const std::string& path) {
 
 Image read_image(const std::string& path) {
   // Said here: some of OpenImageIO's readers (HEIF) spin on a directory instead of failing.
-  std::error_code error;
-  if (std::filesystem::is_directory(path, error))
-    throw FileError(path + ": is a directory, not an image");
+  check_regular_file(path, "an image");
   Image image;
   const std::string problem = codec(path).read(path, kMaxImagePixels, image.width, image.height,
                                                image.channels, image.pixels);

@@ -14,7 +14,7 @@
 namespace basis {
 
 std::vector<SurfacePoint> read_points(const std::string& path) {
-  if (std::filesystem::is_directory(path)) throw FileError(path + ": is a directory");
+  check_regular_file(path);
   std::ifstream in(path);
   if (!in) throw FileError(path + ": " + std::strerror(errno));
   std::vector<SurfacePoint> points;

@@ -1,4 +1,5 @@
 #include "basis/lighting/mesh.h"
+#include "basis/core/file_error.h"
 #include "basis/core/random.h"
 
 #include <tiny_obj_loader.h>
@@ -119,9 +120,7 @@ void TriangleMesh::append(const TriangleMesh& other) {
 }
 
 TriangleMesh read_obj(const std::string& path) {
-  if (std::filesystem::is_directory(path))
-    throw FileError(path + ": is a directory, not an OBJ file");
-  if (!std::filesystem::exists(path)) throw FileError(path + ": No such file or directory");
+  check_regular_file(path, "an OBJ file");
   if (std::filesystem::file_size(path) > kMaxObjBytes)
     throw FileError(path + ": larger than " + std::to_string(kMaxObjBytes >> 30) +
                     " GiB, the limit of an OBJ scene");

@@ -113,7 +113,7 @@ SceneFile parse_scene_file(const std::string& text, const std::string& name,
 }
 
 SceneFile read_scene_file(const std::string& path) {
-  if (std::filesystem::is_directory(path)) throw FileError(path + ": is a directory, not a scene");
+  check_regular_file(path, "a scene");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw FileError(path + ": " + std::strerror(errno));
   std::ostringstream text;

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <stdexcept>
+#include <string>
 
 namespace basis {
 
@@ -9,5 +10,11 @@ class FileError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+
+// Throws FileError naming `path` unless it is a regular file (links followed), before a reader
+// opens it: "is a directory" (", not " + `what` when given) for a folder, "is not a regular
+// file" for a FIFO, socket or device (a reader would wait on it, or never reach its end), and
+// the system's message when it is missing or cannot be examined.
+void check_regular_file(const std::string& path, const std::string& what = "");
 
 }  // namespace basis
