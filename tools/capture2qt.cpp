@@ -108,7 +108,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1LL, 1000000000000LL));
   where->add_option("--image", image_path, "compress this capture image instead of tracing");
   app.add_option("--normal", normal_text, "normal at --at (default 0,0,1)");
-  app.add_option("--seed", seed, "seed of the jitter and of --sample (default 1)");
+  app.add_option("--seed", seed, "seed of the jitter and of --sample (default 1)")
+      ->check(basis::cli::unsigned_number());
   app.add_option(
       "--res", res,
       "texels per side of each capture, a power of two up to 512 (default 128: "
@@ -176,6 +177,11 @@ int main(int argc, char** argv) {
         throw UsageError("--image compresses an existing capture: no light, scene or points");
       if (!shard_text.empty() || skip_existing)
         throw UsageError("--image compresses one capture: no --shard or --skip-existing");
+      for (const char* flag :
+           {"--res", "--spp", "--seed", "--normal", "--splat-lights", "--dump", "--zero-invalid"})
+        if (app.count(flag) > 0)
+          throw UsageError(std::string(flag) + " shapes a traced capture; --image takes the " +
+                           "image as it is");
       const basis::Grid grid = basis::image_to_grid(basis::read_image(image_path), image_path);
       basis::Quadtree tree;
       try {
@@ -191,7 +197,13 @@ int main(int argc, char** argv) {
           output, basis::encode_tree(
                       basis::pack_exact_texels(tree, bound_kind).view(), recipe.projection,
                       {"capture2qt", basis::kVersion, basis::json_text(parameters), {image_path}}));
-      if (!quiet)
+      if (json)
+        std::cout << basis::json_text(nlohmann::ordered_json{{"output", output},
+                                                             {"captures", 1},
+                                                             {"resolution", grid.resolution},
+                                                             {"nodes", tree.node_count()}})
+                  << "\n";
+      else if (!quiet)
         std::printf("%s: one capture of %d x %d texels, %d nodes\n", output.c_str(),
                     grid.resolution, grid.resolution, tree.node_count());
       return;
@@ -199,8 +211,15 @@ int main(int argc, char** argv) {
 
     // Light: a map (NaN and infinities refused unless asked for; negative texels, which real
     // maps carry from their processing, read as 0 with a warning) or a constant.
-    if (env_path.empty() == env_constant.empty())
+    if (!env_path.empty() && !env_constant.empty())
+      throw UsageError("--env and --env-constant exclude each other: give one light");
+    if (env_path.empty() && env_constant.empty())
       throw UsageError("give the light: --env FILE or --env-constant R,G,B");
+    const int point_sources = int(!at.empty()) + int(!points_path.empty()) + int(sample > 0);
+    if (point_sources > 1)
+      throw UsageError("--at, --points and --sample exclude each other: give one set of points");
+    if (point_sources == 0)
+      throw UsageError("give the points: --at X,Y,Z, --points FILE or --sample N");
     if (!env_constant.empty()) {
       const basis::Vec3 c = basis::cli::parse_triple(env_constant, "--env-constant");
       if (c.minCoeff() < 0) throw UsageError("--env-constant must not be negative");

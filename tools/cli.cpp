@@ -2,8 +2,10 @@
 
 #include <unistd.h>
 
+#include <charconv>
 #include <cmath>
 #include <csignal>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -159,6 +161,19 @@ CLI::Validator non_negative_number() {
 }
 CLI::Validator positive_number() {
   return number_check(0, true, "a finite number > 0", "POSITIVE");
+}
+
+CLI::Validator unsigned_number() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        std::uint64_t value = 0;
+        const char* end = text.data() + text.size();
+        const auto [stop, error] = std::from_chars(text.data(), end, value);
+        if (text.empty() || error != std::errc() || stop != end)
+          return "a whole number from 0 to 18446744073709551615 is required, got " + text;
+        return {};
+      },
+      "UINT64", "a whole number from 0 to 2^64 - 1");
 }
 
 Vec3 parse_triple(const std::string& text, const std::string& option) {

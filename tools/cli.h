@@ -72,6 +72,8 @@ Shard parse_shard_option(const std::string& text, std::uint64_t total, const std
 CLI::Validator finite_number();
 CLI::Validator non_negative_number();
 CLI::Validator positive_number();
+// A whole number from 0 to 2^64 - 1, as written (CLI11 wraps "-1" and saturates larger ones).
+CLI::Validator unsigned_number();
 
 // A file a tool reads or writes, with the flag or argument that named it.
 struct NamedPath {

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "basis/core/file_error.h"
 #include "basis/core/version.h"
 #include "basis/io/image_file.h"
 #include "basis/study/speed_study.h"
@@ -89,7 +90,11 @@ int main(int argc, char** argv) {
     const auto start = std::chrono::steady_clock::now();
     if (map.empty()) map = "/usr/share/blender/datafiles/studiolights/world/sunrise.exr";
     const basis::Environment env(basis::read_image(map), 0, map);
-    std::filesystem::create_directories(out_dir);
+    std::error_code error;
+    std::filesystem::create_directories(out_dir, error);
+    if (error || !std::filesystem::is_directory(out_dir))
+      throw basis::FileError(
+          out_dir + ": cannot be the output folder: " + (error ? error.message() : "not a folder"));
     basis::SpeedStudyOptions options{.quick = quick, .measured = measured, .scene = scene};
     options.scene_points = app.count("--scene-points") ? scene_points : quick ? 4 : 8;
     if (options.measured.empty())

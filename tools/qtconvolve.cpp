@@ -333,6 +333,10 @@ int main(int argc, char** argv) {
     const bool shades_captures = has_table && shaded_kind == QtKind::capture_set;
     if (!has_table && (!normal_text.empty() || wo_text != "0,0,1"))
       throw UsageError("--wo and --normal apply to a BRDF table and captures");
+    if (app.count("--tilt") > 0 && normal_text.empty())
+      throw UsageError("--tilt says how --normal's tilt is handled: give --normal");
+    if (!has_table && (app.count("--lights") > 0 || app.count("--interpolation") > 0))
+      throw UsageError("--lights and --interpolation apply to a BRDF table's lookups");
     if (reference && (!shades_captures || shading.normal))
       throw UsageError("--reference compares an untilted BRDF table lookup with captures");
     const bool two_sets = a.kind() == QtKind::capture_set && b.kind() == QtKind::capture_set;

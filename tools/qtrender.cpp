@@ -77,7 +77,8 @@ int main(int argc, char** argv) {
   app.add_option("--compare", compare,
                  "reference EXR of the same size: report relative MSE and RMSE over the pixels "
                  "that hit geometry; the PNG is then tone-mapped as the reference would be");
-  app.add_option("--seed", seed, "seed of the samples and of the records' jitter (default 1)");
+  app.add_option("--seed", seed, "seed of the samples and of the records' jitter (default 1)")
+      ->check(basis::cli::unsigned_number());
   app.add_option("--record-res", cache.resolution,
                  "cache: record texels per side, a power of two (default 32)");
   app.add_option("--record-spp", cache.strata,
@@ -125,7 +126,17 @@ int main(int argc, char** argv) {
 
   return basis::cli::run(app, argc, argv, [&] {
     using basis::cli::UsageError;
-    if (method != "mc" && time_budget > 0) throw UsageError("--time-budget is for --method mc");
+    // Flags of the other method would be ignored: said rather than silently dropped.
+    for (const char* flag : {"--spp", "--time-budget"})
+      if (method != "mc" && app.count(flag) > 0)
+        throw UsageError(std::string(flag) + " is for --method mc");
+    for (const char* flag : {"--record-res", "--record-spp", "--tolerance", "--radius-scale",
+                             "--min-spacing", "--max-spacing", "--max-normal", "--records",
+                             "--lookup-accuracy", "--first-spacing", "--tilt"})
+      if (method == "mc" && app.count(flag) > 0)
+        throw UsageError(std::string(flag) + " is for --method cache or cache-dense");
+    if (app.count("--spp") > 0 && app.count("--time-budget") > 0)
+      throw UsageError("--spp and --time-budget exclude each other");
     if (!basis::is_valid_resolution(cache.resolution))
       throw UsageError("--record-res must be a power of two from 2 to 512, got " +
                        std::to_string(cache.resolution));

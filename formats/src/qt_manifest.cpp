@@ -86,6 +86,14 @@ CaptureManifest read_manifest(const std::string& path) {
   const JsonFields fields(text, path);
   const json root = fields.parse();
   if (!root.is_object()) fields.fail("", "a manifest is a JSON object");
+  // JSON without the manifest's format (a spec, a scene) is not a manifest at all: said so
+  // before its fields are judged as a manifest's.
+  if (!root.contains("format") || !root.at("format").is_string() ||
+      root.at("format").get<std::string>() != kManifestFormat)
+    throw FileError(path +
+                    ": JSON, but not a .qt file or a capture-set manifest (its field 'format' is "
+                    "not \"" +
+                    kManifestFormat + "\")");
   fields.only(root, {"format", "version", "total_points", "run", "shards"}, "");
   if (fields.string(root, "format", "format") != kManifestFormat)
     fields.fail("format", std::string("must be \"") + kManifestFormat + "\"");

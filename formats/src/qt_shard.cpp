@@ -49,11 +49,7 @@ ShardFile open_shard_file(const std::string& path) {
     throw;
   }
   QtFile& file = *loaded;
-  if (recorded.empty())
-    throw FileError(path + ": no checksum beside it (" + checksum_path(path) +
-                    "): the run that wrote it did not finish; make the shard again");
-  const std::string actual = checksum_hex(file.bytes());
-  if (actual != recorded) throw altered(actual);
+  // What the file is comes first: a table or a whole set has no checksum to look for.
   if (file.kind() != QtKind::capture_set)
     throw FileError(path + ": a " + to_string(file.kind()) + ", not a shard of captures");
   CaptureRecipe recipe = capture_recipe(file);
@@ -61,6 +57,11 @@ ShardFile open_shard_file(const std::string& path) {
     throw FileError(path +
                     ": a whole capture set, not a shard of a sharded run (capture2qt "
                     "--shard)");
+  if (recorded.empty())
+    throw FileError(path + ": no checksum beside it (" + checksum_path(path) +
+                    "): the run that wrote it did not finish; make the shard again");
+  const std::string actual = checksum_hex(file.bytes());
+  if (actual != recorded) throw altered(actual);
   std::string run = run_parameters(file.provenance().parameters, path);
   return {std::move(file), std::move(recipe), std::move(run), actual};
 }

@@ -139,9 +139,12 @@ TEST(BadInputMatrix, QtReaders) {
     check(dir, "qtmerge", {{name, "-o", "out.qt"}, 1, name});
   }
   // Files that are not shards of a run.
-  check(dir, "qtmerge", {{"cap.qt", "-o", "out.qt"}, 1, "cap.qt"});
-  check(dir, "qtmerge", {{"ok.qt", "--manifest", "out.qtm"}, 1, "ok.qt"});
+  check(dir, "qtmerge", {{"cap.qt", "-o", "out.qt"}, 1, "cap.qt: a whole capture set, not a"});
+  check(dir, "qtmerge", {{"ok.qt", "--manifest", "out.qtm"}, 1, "ok.qt: a brdf-table, not a"});
   check(dir, "qtinfo", {{"future.qt"}, 1, "format version 99 is newer"});
+  // JSON of another kind (a spec) is named as such, not judged as a manifest's fields.
+  check(dir, "qtinfo", {{"ok.json"}, 1, "ok.json: JSON, but not a .qt file or a capture-set"});
+  check(dir, "qtconvolve", {{"ok.qt", "ok.json"}, 1, "ok.json: JSON, but not a .qt file"});
 }
 
 TEST(BadInputMatrix, Specs) {
@@ -396,6 +399,43 @@ TEST(BadInputMatrix, QtinfoChecksItsChoicesBeforePrinting) {
     EXPECT_EQ(r.out, "") << command;
     EXPECT_EQ(testing::line_count(r.err), 1) << command << "\n" << r.err;
   }
+}
+
+// Flags that would be ignored, or that contradict each other, are bad usage (exit 2, one line,
+// nothing written), as are seeds outside 0 .. 2^64 - 1 (CLI11 wrapped -1 to 2^64 - 1).
+TEST(BadInputMatrix, IgnoredOrContradictoryFlagsAreBadUsage) {
+  TempDir dir;
+  write_inputs(dir);
+  const std::vector<std::string> at = {"--env-constant", "1,1,1", "--at", "0,0,0", "-o", "x.qt"};
+  auto with = [](std::vector<std::string> args, std::initializer_list<std::string> more) {
+    args.insert(args.end(), more);
+    return args;
+  };
+  check(dir, "capture2qt", {with(at, {"--seed", "-1"}), 2, "--seed"});
+  check(dir, "capture2qt", {with(at, {"--seed", "18446744073709551616"}), 2, "--seed"});
+  check(dir, "capture2qt", {with(at, {"--env", "map.exr"}), 2, "exclude each other"});
+  check(dir, "capture2qt", {with(at, {"--sample", "3"}), 2, "exclude each other"});
+  check(dir, "qtrender", {{"s.json", "--method", "cache", "--spp", "2"}, 2, "--spp"});
+  check(dir, "qtrender", {{"s.json", "--method", "mc", "--record-res", "64"}, 2, "--record-res"});
+  check(dir, "qtrender",
+        {{"s.json", "--method", "mc", "--spp", "2", "--time-budget", "1"}, 2, "exclude"});
+  check(dir, "qtrender", {{"s.json", "--seed", "-5"}, 2, "--seed"});
+  check(dir, "qtconvolve", {{"ok.qt", "cap.qt", "--tilt", "none"}, 2, "--tilt"});
+  check(dir, "qtconvolve", {{"cap.qt", "cap.qt", "--lights", "table"}, 2, "--lights"});
+  // --image takes the image as it is, and prints JSON when asked.
+  std::filesystem::create_directory(dir.file("dump"));
+  ASSERT_EQ(
+      run_tool("capture2qt", with(at, {"--res", "8", "--dump", "dump", "-q"}), dir.path()).status,
+      0);
+  std::filesystem::remove(dir.file("x.qt"));
+  check(dir, "capture2qt",
+        {{"--image", "dump/capture_00000.exr", "--res", "32", "-o", "i.qt"}, 2, "--res"});
+  const auto image = run_tool(
+      "capture2qt", {"--image", "dump/capture_00000.exr", "--json", "-o", "i.qt"}, dir.path());
+  ASSERT_EQ(image.status, 0) << image.err;
+  const auto j = nlohmann::json::parse(image.out);
+  EXPECT_EQ(j["captures"], 1);
+  EXPECT_EQ(j["resolution"], 8);
 }
 
 }  // namespace

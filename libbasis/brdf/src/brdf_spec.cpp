@@ -55,11 +55,17 @@ BrdfSpec parse_brdf_spec(const std::string& text, const std::string& name,
       r.fail("file", m == "merl" ? "missing or not a string (path of a MERL .binary file)"
                                  : "missing or not a string (path of an RGL .bsdf file)");
     std::filesystem::path file = root["file"].get<std::string>();
+    if (file.empty()) r.fail("file", "must name a file");
     if (file.is_relative() && !folder.empty()) file = std::filesystem::path(folder) / file;
-    if (m == "merl")
-      spec.brdf = std::shared_ptr<const MeasuredBrdf>(MerlBrdf::read(file.string()));
-    else
-      spec.brdf = std::shared_ptr<const MeasuredBrdf>(RglBrdf::read(file.string()));
+    // The data file's own error, with the spec and the field that named it.
+    try {
+      if (m == "merl")
+        spec.brdf = std::shared_ptr<const MeasuredBrdf>(MerlBrdf::read(file.string()));
+      else
+        spec.brdf = std::shared_ptr<const MeasuredBrdf>(RglBrdf::read(file.string()));
+    } catch (const FileError& e) {
+      r.fail("file", e.what());
+    }
   } else {
     r.fail("model",
            "unknown model '" + m + "' (lambert, phong, blinn-phong, ward, ggx, merl, rgl)");
