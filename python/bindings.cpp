@@ -8,8 +8,11 @@
 #include <tbb/task_arena.h>
 
 #include <array>
+#include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <numbers>
 #include <optional>
@@ -181,7 +184,10 @@ BoundKind bounds_of(const std::string& name) {
 }
 
 // A grid from an array of shape (N, N), (C, N, N) or (G, C, N, N), float texel averages.
-Grid to_grid(const py::array_t<float, py::array::c_style | py::array::forcecast>& a) {
+// A NumPy grid as texels: indexed [v, u] in each plane (row y = v, column x = u), as Grid is.
+// Finite values beyond the largest float are refused (std::overflow_error) rather than read as
+// infinities.
+Grid to_grid(const py::array_t<double, py::array::c_style | py::array::forcecast>& a) {
   std::array<py::ssize_t, 4> shape{1, 1, 0, 0};
   if (a.ndim() == 2)
     shape = {1, 1, a.shape(0), a.shape(1)};
@@ -198,7 +204,16 @@ Grid to_grid(const py::array_t<float, py::array::c_style | py::array::forcecast>
     throw std::invalid_argument("a grid's side must be a power of two from 2 to 512, got " +
                                 std::to_string(shape[2]));
   Grid grid{int(shape[2]), int(shape[1]), int(shape[0])};
-  std::copy(a.data(), a.data() + grid.texels.size(), grid.texels.begin());
+  const double* values = a.data();
+  for (std::size_t k = 0; k < grid.texels.size(); ++k) {
+    if (std::isfinite(values[k]) && std::abs(values[k]) > std::numeric_limits<float>::max()) {
+      char text[64];
+      std::snprintf(text, sizeof text, "%.3g", values[k]);
+      throw std::overflow_error(std::string("a texel of ") + text +
+                                " lies beyond what floats hold (3.4e38)");
+    }
+    grid.texels[k] = float(values[k]);
+  }
   return grid;
 }
 
@@ -358,7 +373,8 @@ PYBIND11_MODULE(basis, m) {
           "trees without exact texels).")
       .def(
           "reconstruct", [](const Tree& t) { return grid_array(reconstruct(t.view)); },
-          "The piecewise-constant function at full resolution: float32 (groups, channels, N, N).")
+          "The piecewise-constant function at full resolution: float32 (groups, channels, N, N), "
+          "each plane indexed [v, u] as project() takes it.")
       .def(
           "integrate",
           [](const Tree& t, int group, int channel) {
@@ -369,11 +385,12 @@ PYBIND11_MODULE(basis, m) {
             return integrate(t.view, group, channel);
           },
           py::arg("group") = 0, py::arg("channel") = 0,
-          "The integral over the unit square of one group and channel.");
+          "The integral over the unit square of one group and channel: the root's average as "
+          "stored (to half precision), within the tree's bound of the source grid's mean.");
 
   m.def(
       "project",
-      [](const py::array_t<float, py::array::c_style | py::array::forcecast>& grid,
+      [](const py::array_t<double, py::array::c_style | py::array::forcecast>& grid,
          double tolerance, bool absolute, const std::string& bounds) {
         ProjectionOptions options;
         options.tolerance = tolerance;
@@ -386,9 +403,10 @@ PYBIND11_MODULE(basis, m) {
       },
       py::arg("grid"), py::arg("tolerance") = 0.05, py::arg("absolute") = false,
       py::arg("bounds") = "l2",
-      "A grid of texel averages (N x N, C x N x N or G x C x N x N) projected into a packed tree: "
-      "a quadrant is refined while its bound exceeds tolerance times the channel's mean (or "
-      "tolerance itself with absolute=True).");
+      "A grid of texel averages (N x N, C x N x N or G x C x N x N; each plane indexed [v, u], "
+      "rows v downwards, columns u) projected into a packed tree: a quadrant is refined while "
+      "its bound exceeds tolerance times the channel's mean (or tolerance itself with "
+      "absolute=True). Values beyond floats raise OverflowError.");
 
   m.def(
       "convolve",
@@ -555,6 +573,9 @@ PYBIND11_MODULE(basis, m) {
       .def_static(
           "from_json",
           [](const std::string& text) {
+            // JSON text ends at its last character, not at a NUL the parser would stop at.
+            if (text.find('\0') != std::string::npos)
+              throw std::invalid_argument("spec text holds a NUL character");
             return PyBrdf{parse_brdf_spec(text, "spec", "."), ""};
           },
           py::arg("text"), "A BRDF from JSON spec text.")

@@ -377,7 +377,8 @@ int main(int argc, char** argv) {
     }
     std::printf(
         "%s: %zu captures of %d x %d texels (%d rays each), %zu nodes (%.1f per "
-        "capture), %zu compact lights seen (%zu in the environment%s), %.2f MiB; %.2f M rays, "
+        "capture), %zu directional lights kept apart over the captures (from %zu compact lights in "
+        "the environment%s), %.2f MiB; %.2f M rays, "
         "projection %.1f %% of capture time, %.2f s\n",
         output.c_str(), set.positions.size(), res, res, spp, nodes,
         double(nodes) / double(set.positions.size()), set.lights.size(),

@@ -375,3 +375,13 @@ def test_provenance_of_a_source_whose_name_is_not_utf8(tmp_path):
     basis.write(str(tmp_path / "t.qt"), table)
     sources = basis.load(str(tmp_path / "t.qt")).provenance["sources"]
     assert [os.fsencode(s) for s in sources] == [name]
+
+
+def test_grids_beyond_floats_and_specs_with_a_nul_are_refused():
+    """A finite texel beyond the largest float raises OverflowError (it was read as infinity and
+    reported as NaN or Inf); JSON text with a NUL character raises ValueError (the parser stopped
+    there and took the rest as gone)."""
+    with pytest.raises(OverflowError, match="beyond what floats hold"):
+        basis.project(np.ones((8, 8)) * 1e300)
+    with pytest.raises(ValueError, match="NUL"):
+        basis.Brdf.from_json('{"model": "lambert", "albedo": 0.5}\0garbage')

@@ -56,6 +56,15 @@ std::pair<std::string, int> make_temporary(const std::string& path) {
   return {std::string(buffer.data()), fd};
 }
 
+// Where writing `path` goes: through a symbolic link to an existing file, to that file (the
+// link stays a link); otherwise `path` itself.
+std::string through_links(const std::string& path) {
+  std::error_code error;
+  if (!std::filesystem::is_symlink(path, error)) return path;
+  const std::filesystem::path target = std::filesystem::canonical(path, error);
+  return error ? path : target.string();
+}
+
 void check_destination(const std::string& path) {
   if (path.empty()) throw FileError("output path is empty");
   if (destination_kind(path) == 2) throw FileError(path + ": is a directory");
@@ -63,7 +72,7 @@ void check_destination(const std::string& path) {
 
 }  // namespace
 
-AtomicFileWriter::AtomicFileWriter(std::string path) : path_(std::move(path)) {
+AtomicFileWriter::AtomicFileWriter(std::string path) : path_(through_links(path)) {
   check_destination(path_);
   if (destination_kind(path_) == 3) {  // a device or pipe: no rename possible, write through
     fd_ = ::open(path_.c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC);
@@ -135,8 +144,9 @@ void write_file_atomically(const std::string& path, std::span<const std::byte> d
   writer.commit();
 }
 
-void write_file_atomically(const std::string& path,
+void write_file_atomically(const std::string& destination,
                            const std::function<void(const std::string& temp_path)>& write) {
+  const std::string path = through_links(destination);
   check_destination(path);
   if (destination_kind(path) == 3) {
     write(path);

@@ -91,6 +91,29 @@ TEST(AtomicFileWriter, PublishesOnlyOnCommit) {
   EXPECT_THROW(AtomicFileWriter(dir.path()), FileError);  // a folder
 }
 
+// Through a symbolic link to a file, both forms of atomic writing replace the link's target and
+// keep the link (they replaced the link with a file of its own before).
+TEST(AtomicFileWriter, WritesThroughSymbolicLinks) {
+  TempDir dir;
+  std::filesystem::create_directory(dir.file("data"));
+  std::ofstream(dir.file("data/target.csv")) << "old\n";
+  std::filesystem::create_symlink("data/target.csv", dir.file("link.csv"));
+  auto read = [](const std::string& path) {
+    std::ifstream in(path);
+    std::string line;
+    std::getline(in, line);
+    return line;
+  };
+  write_file_atomically(dir.file("link.csv"), std::as_bytes(std::span("new\n", 4)));
+  EXPECT_TRUE(std::filesystem::is_symlink(dir.file("link.csv")));
+  EXPECT_EQ(read(dir.file("data/target.csv")), "new");
+  write_file_atomically(dir.file("link.csv"),
+                        [](const std::string& temp) { std::ofstream(temp) << "newer\n"; });
+  EXPECT_TRUE(std::filesystem::is_symlink(dir.file("link.csv")));
+  EXPECT_EQ(read(dir.file("data/target.csv")), "newer");
+  EXPECT_EQ(dir.entries(), (std::vector<std::string>{"data", "link.csv"}));
+}
+
 TEST(AtomicFileWriter, AProcessKilledWhileWritingLeavesNothing) {
   TempDir dir;
   const std::string path = dir.file("shard.qt");

@@ -16,8 +16,9 @@ namespace basis {
 // destination's folder, which commit() renames over `path`. The temporary is unnamed where the
 // file system allows (O_TMPFILE), so that a process killed outright (SIGKILL) leaves nothing;
 // elsewhere it is a hidden file, removed when the writer is destroyed without a commit. A
-// destination that exists and is not a regular file (a device, a pipe) is written directly.
-// Every failure is a FileError naming `path`.
+// destination that exists and is not a regular file (a device, a pipe) is written directly; a
+// symbolic link to an existing file is written through (its target replaced, the link kept).
+// Every failure is a FileError naming `path` (the link's target, through a link).
 class AtomicFileWriter {
  public:
   explicit AtomicFileWriter(std::string path);
