@@ -74,7 +74,10 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", basis::kVersion);
 
   return basis::cli::run(app, argc, argv, [&] {
+    if (output.empty())
+      output = std::filesystem::path(spec_path).replace_extension(".qt").filename().string();
     basis::cli::check_outputs_spare_inputs({{"-o", output}}, {{"spec", spec_path}});
+    basis::cli::check_output_place(output);
     const basis::BrdfSpec spec = basis::read_brdf_spec(spec_path);
     basis::BrdfTableOptions options = basis::table_options(spec);
     if (wo_res) options.wo_resolution = wo_res;
@@ -88,9 +91,6 @@ int main(int argc, char** argv) {
     options.tilt_derivatives = !no_tilt;
     options.wo_derivatives = !no_wo_derivatives;
     options.bounds = bounds == "linf" ? basis::BoundKind::linf : basis::BoundKind::l2;
-    if (output.empty())
-      output = std::filesystem::path(spec_path).replace_extension(".qt").filename().string();
-    basis::cli::check_output_place(output);
 
     const auto arena = basis::cli::thread_arena(threads);
     basis::cli::ProgressBar progress("brdf2qt", quiet);

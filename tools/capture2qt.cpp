@@ -182,6 +182,10 @@ int main(int argc, char** argv) {
         if (app.count(flag) > 0)
           throw UsageError(std::string(flag) + " shapes a traced capture; --image takes the " +
                            "image as it is");
+      if (output.empty())
+        output = std::filesystem::path(image_path).replace_extension(".qt").filename().string();
+      basis::cli::check_outputs_spare_inputs({{"-o", output}}, {{"--image", image_path}});
+      basis::cli::check_output_place(output);
       const basis::Grid grid = basis::image_to_grid(basis::read_image(image_path), image_path);
       basis::Quadtree tree;
       try {
@@ -189,8 +193,6 @@ int main(int argc, char** argv) {
       } catch (const std::overflow_error& e) {
         throw basis::FileError(image_path + ": radiance too large: " + e.what());
       }
-      if (output.empty())
-        output = std::filesystem::path(image_path).replace_extension(".qt").filename().string();
       const nlohmann::ordered_json parameters = {{"tolerance", tolerance},
                                                  {"mode", absolute ? "absolute" : "relative"}};
       basis::write_qt(

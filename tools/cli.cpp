@@ -13,6 +13,8 @@
 #include <sstream>
 
 #include "basis/core/file_error.h"
+#include "basis/format/qt_manifest.h"
+#include "basis/io/checksum.h"
 
 namespace basis::cli {
 
@@ -201,7 +203,23 @@ bool same_file(const std::string& x, const std::string& y) {
 }  // namespace
 
 void check_outputs_spare_inputs(const std::vector<NamedPath>& outputs,
-                                const std::vector<NamedPath>& inputs) {
+                                const std::vector<NamedPath>& given) {
+  // A manifest's shards, and their checksums, are read too. JSON that is not a manifest (a spec,
+  // a scene) lists nothing; the tool's own reading reports a broken one.
+  std::vector<NamedPath> inputs = given;
+  for (const NamedPath& in : given) {
+    if (in.path.empty() || !is_manifest(in.path)) continue;
+    CaptureManifest manifest;
+    try {
+      manifest = read_manifest(in.path);
+    } catch (const FileError&) {
+      continue;
+    }
+    for (std::size_t k = 0; k < manifest.shards.size(); ++k) {
+      inputs.push_back({in.option + "'s manifest", manifest.shard_path(k)});
+      inputs.push_back({in.option + "'s manifest", checksum_path(manifest.shard_path(k))});
+    }
+  }
   for (std::size_t k = 0; k < outputs.size(); ++k) {
     const NamedPath& out = outputs[k];
     if (out.path.empty()) continue;

@@ -81,8 +81,9 @@ struct NamedPath {
   std::string path;
 };
 // Throws UsageError when an output is the same file as an input (links and relative paths
-// resolved, for files that exist), which writing it would destroy, or when two outputs name
-// the same file, so that one would silently replace the other. Empty paths are skipped.
+// resolved, for files that exist; an input manifest's shards and their checksums count as
+// inputs), which writing it would destroy, or when two outputs name the same file, so that one
+// would silently replace the other. Empty paths are skipped.
 void check_outputs_spare_inputs(const std::vector<NamedPath>& outputs,
                                 const std::vector<NamedPath>& inputs);
 

@@ -333,6 +333,8 @@ int main(int argc, char** argv) {
     const bool shades_captures = has_table && shaded_kind == QtKind::capture_set;
     if (!has_table && (!normal_text.empty() || wo_text != "0,0,1"))
       throw UsageError("--wo and --normal apply to a BRDF table and captures");
+    if (!normal_text.empty() && !shades_captures)
+      throw UsageError("--normal tilts captures' frames: give a BRDF table and captures");
     if (app.count("--tilt") > 0 && normal_text.empty())
       throw UsageError("--tilt says how --normal's tilt is handled: give --normal");
     if (!has_table && (app.count("--lights") > 0 || app.count("--interpolation") > 0))
@@ -455,7 +457,7 @@ int main(int argc, char** argv) {
         if (tilt > basis::kSupportedTiltDegrees) {
           warned_tilt = true;
           progress.print_line(printed(
-              "qtconvolve: warning: --normal tilts captures by up to %.0f degrees; tilts are "
+              "qtconvolve: warning: --normal tilts captures by up to %.1f degrees; tilts are "
               "supported to %.0f (within about 2 %% there), and the bound does not cover the "
               "tilt's error",
               tilt, basis::kSupportedTiltDegrees));

@@ -26,7 +26,9 @@ void describe_manifest(const std::string& input, bool json, const std::string& p
                        int group, int size) {
   using basis::cli::UsageError;
   const basis::CaptureManifest manifest = basis::read_manifest(input);
-  // Checked before anything is printed.
+  // Checked before anything is printed: captures have one group and no entries.
+  if (group > 0)
+    throw UsageError("--group " + std::to_string(group) + " but the captures hold 1 group");
   const std::uint64_t k = index < 0 ? 0 : std::uint64_t(index);
   if (k >= manifest.total_points)
     throw UsageError("--index " + std::to_string(index) + " but the set holds " +
@@ -93,7 +95,14 @@ int main(int argc, char** argv) {
       throw UsageError(
           "--entry (a table's entry) and --index (a capture or tree) exclude each "
           "other");
-    if (basis::is_manifest(input)) return describe_manifest(input, json, png, index, group, size);
+    basis::cli::check_output_place(png);
+    if (basis::is_manifest(input)) {
+      if (!entry.empty())
+        throw UsageError(
+            "--entry picks a BRDF table's entry; a manifest lists captures: pick "
+            "one with --index");
+      return describe_manifest(input, json, png, index, group, size);
+    }
     const basis::QtFile file = basis::QtFile::load(input);
     // The tree to draw is chosen, and checked, before anything is printed.
     basis::PackedTreeView tree = file.tree();

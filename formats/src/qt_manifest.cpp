@@ -95,8 +95,6 @@ CaptureManifest read_manifest(const std::string& path) {
                     "not \"" +
                     kManifestFormat + "\")");
   fields.only(root, {"format", "version", "total_points", "run", "shards"}, "");
-  if (fields.string(root, "format", "format") != kManifestFormat)
-    fields.fail("format", std::string("must be \"") + kManifestFormat + "\"");
   const std::uint64_t version = whole_number(fields, root, "version", "version", 1, 1u << 30);
   if (version > std::uint64_t(kManifestVersion))
     fields.fail("version", "version " + std::to_string(version) +

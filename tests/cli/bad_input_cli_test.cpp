@@ -6,6 +6,7 @@
 #include <sys/stat.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -267,8 +268,9 @@ TEST(BadInputMatrix, NumbersThatAreNotFiniteAreBadUsage) {
 }
 
 // A .qt path that is a FIFO is refused at once (it would otherwise wait for a writer).
-// Every input that is a FIFO is refused by name at once: no reader waits for a writer (the
-// specs, maps, points, scenes and measured data once did, and only SIGKILL stopped them).
+// No reader waits for a FIFO's writer (the specs, maps, points, scenes and measured data once
+// did, and only SIGKILL stopped them): readers that need a file refuse a FIFO by name at once,
+// and specs and scenes, which are read to their end, read one that no process writes as empty.
 TEST(BadInputMatrix, FifosAreRefusedNotWaitedOn) {
   TempDir dir;
   write_inputs(dir);
@@ -278,7 +280,7 @@ TEST(BadInputMatrix, FifosAreRefusedNotWaitedOn) {
   write_text(dir.file("merl.json"), R"({"model": "merl", "file": "pipe.binary"})");
   check(dir, "qtinfo", {{"pipe.qt"}, 1, "pipe.qt: is not a regular file"});
   check(dir, "qtconvolve", {{"ok.qt", "pipe.qt"}, 1, "pipe.qt: is not a regular file"});
-  check(dir, "brdf2qt", {{"pipe.json"}, 1, "pipe.json: is not a regular file"});
+  check(dir, "brdf2qt", {{"pipe.json"}, 1, "pipe.json:"});
   check(dir, "brdf2qt", {{"merl.json"}, 1, "pipe.binary: is not a regular file"});
   check(dir, "capture2qt",
         {{"--env", "pipe.exr", "--at", "0,0,0", "-o", "out.qt"}, 1, "pipe.exr: is not a regular"});
@@ -290,7 +292,14 @@ TEST(BadInputMatrix, FifosAreRefusedNotWaitedOn) {
         {{"--env-constant", "1,1,1", "--scene", "pipe.obj", "--sample", "4", "-o", "out.qt"},
          1,
          "pipe.obj: is not a regular file"});
-  check(dir, "qtrender", {{"pipe.json", "-o", "out.exr"}, 1, "pipe.json: is not a regular file"});
+  check(dir, "qtrender", {{"pipe.json", "-o", "out.exr"}, 1, "pipe.json:"});
+  // A spec through a pipe that a process writes is read as a file is.
+  const std::string command = "cat ok.json | '" + (testing::tool_directory() / "brdf2qt").string() +
+                              "' /dev/stdin --wo-res 3 --wi-res 8 -q -o piped.qt";
+  EXPECT_EQ(std::system(("cd '" + dir.path() + "' && " + command).c_str()), 0) << command;
+  const auto piped = run_tool("qtinfo", {"piped.qt", "--json"}, dir.path());
+  ASSERT_EQ(piped.status, 0) << piped.err;
+  EXPECT_EQ(nlohmann::json::parse(piped.out)["kind"], "brdf-table");
 }
 
 // File names that are not UTF-8 still give --json output, their bad bytes replaced.
@@ -359,6 +368,12 @@ TEST(BadInputMatrix, OutputsThatWouldDestroyAnInputAreRefused) {
         {{"--env-constant", "1,1,1", "--points", "ok.json", "-o", "ok.json"},
          2,
          "the file --points reads"});
+  // A manifest's shards are inputs too.
+  ASSERT_EQ(run_tool("qtmerge", {"shard.0.qt", "--manifest", "m.qtm", "-q"}, dir.path()).status, 0);
+  const std::string shard = testing::slurp(dir.file("shard.0.qt"));
+  check(dir, "qtmerge", {{"m.qtm", "-o", "shard.0.qt"}, 2, "shard.0.qt is the file inputs's"});
+  check(dir, "qtconvolve", {{"ok.qt", "m.qtm", "-o", "shard.0.qt.xxh128"}, 2, "manifest"});
+  EXPECT_EQ(testing::slurp(dir.file("shard.0.qt")), shard);
   EXPECT_EQ(testing::slurp(dir.file("ok.qt")), table);
   EXPECT_EQ(testing::slurp(dir.file("ok.json")), spec);
   std::filesystem::create_directory(dir.file("folder"));
@@ -383,6 +398,7 @@ TEST(BadInputMatrix, ATableBlocksResolutionIsTheSpecsError) {
 TEST(BadInputMatrix, QtinfoChecksItsChoicesBeforePrinting) {
   TempDir dir;
   write_inputs(dir);
+  ASSERT_EQ(run_tool("qtmerge", {"shard.0.qt", "--manifest", "m.qtm", "-q"}, dir.path()).status, 0);
   for (const std::vector<std::string>& args :
        {std::vector<std::string>{"ok.qt", "--json", "--index", "2"},
         {"ok.qt", "--entry", "1,1"},
@@ -390,7 +406,9 @@ TEST(BadInputMatrix, QtinfoChecksItsChoicesBeforePrinting) {
         {"cap.qt", "--png", "x.png", "--entry", "0,0"},
         {"cap.qt", "--png", "x.png", "--index", "5"},
         {"cap.qt", "--png", "x.png", "--index", "-1"},
-        {"cap.qt", "--png", "x.png", "--group", "1"}}) {
+        {"cap.qt", "--png", "x.png", "--group", "1"},
+        {"m.qtm", "--png", "x.png", "--group", "1"},
+        {"m.qtm", "--png", "x.png", "--entry", "0,0"}}) {
     const auto r = run_tool("qtinfo", args, dir.path());
     std::string command = "qtinfo";
     for (const auto& a : args)

@@ -342,7 +342,7 @@ TEST(QtconvolveCli, DenseProductsOfDifferentResolutionsAndTiltsPastTheSupportedO
   const auto tilted =
       run_tool("qtconvolve", {"l.qt", "sky.qt", "--normal", "0.5,0,0.866", "-q"}, dir.path());
   EXPECT_EQ(tilted.status, 0) << tilted.err;
-  EXPECT_NE(tilted.err.find("warning: --normal tilts captures by up to 30 degrees"),
+  EXPECT_NE(tilted.err.find("warning: --normal tilts captures by up to 30.0 degrees"),
             std::string::npos)
       << tilted.err;
   EXPECT_EQ(std::count(tilted.err.begin(), tilted.err.end(), '\n'), 1) << tilted.err;

@@ -11,6 +11,7 @@
 #include "basis/core/file_error.h"
 #include "basis/core/grid.h"
 #include "basis/io/json_fields.h"
+#include "basis/io/text_file.h"
 
 namespace basis {
 
@@ -95,14 +96,8 @@ BrdfSpec parse_brdf_spec(const std::string& text, const std::string& name,
 }
 
 BrdfSpec read_brdf_spec(const std::string& path) {
-  check_regular_file(path, "a spec");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw FileError(path + ": " + std::strerror(errno));
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw FileError(path + ": cannot read");
-  if (text.str().size() > (1 << 20)) throw FileError(path + ": larger than 1 MiB, not a BRDF spec");
-  return parse_brdf_spec(text.str(), path, std::filesystem::path(path).parent_path().string());
+  const std::string text = read_text_file(path, std::size_t(1) << 20, "a BRDF spec");
+  return parse_brdf_spec(text, path, std::filesystem::path(path).parent_path().string());
 }
 
 }  // namespace basis

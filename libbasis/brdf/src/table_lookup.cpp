@@ -29,16 +29,23 @@ Convolution convolve_tap(const BrdfTableView& table, const TableTap& tap,
 }
 
 // Sums entry(tap) over the taps that read anything, pi included.
+// In double, then to floats whose bound still holds (certified_float).
 template <typename Entry>
 Convolution interpolate(const std::array<TableTap, 4>& taps, Entry entry) {
-  Convolution result;
+  double value[3] = {}, bound[3] = {};
   for (const TableTap& tap : taps) {
     if (!tap.reads_anything()) continue;
     const Convolution c = entry(tap);
     for (int ch = 0; ch < 3; ++ch) {
-      result.value[ch] += float(std::numbers::pi * c.value[ch]);
-      result.bound[ch] += float(std::numbers::pi * c.bound[ch]);
+      value[ch] += std::numbers::pi * c.value[ch];
+      bound[ch] += std::numbers::pi * c.bound[ch];
     }
+  }
+  Convolution result;
+  for (int ch = 0; ch < 3; ++ch) {
+    const CertifiedFloat f = certified_float(value[ch], bound[ch]);
+    result.value[ch] = f.value;
+    result.bound[ch] = f.bound;
   }
   return result;
 }
@@ -126,8 +133,10 @@ Convolution reflect(const BrdfTableView& table, const EntriesAtWo& entries,
   const Convolution c = convolve(*entries.folded, radiance, options);
   Convolution result;
   for (int ch = 0; ch < 3; ++ch) {
-    result.value[ch] = float(std::numbers::pi * c.value[ch]);
-    result.bound[ch] = float(std::numbers::pi * c.bound[ch]);
+    const CertifiedFloat f =
+        certified_float(std::numbers::pi * c.value[ch], std::numbers::pi * c.bound[ch]);
+    result.value[ch] = f.value;
+    result.bound[ch] = f.bound;
   }
   return result;
 }

@@ -1008,10 +1008,13 @@ GroupConvolution dispatch_simd_bound_if(bool bound, const PackedTreeView& a,
 #endif  // SSE4.1 and F16C
 
 // One group weighted by w: the value times w, the bound times |w|.
+// The products of two floats are exact in double: the float results keep a bound that holds.
 [[maybe_unused]] GroupConvolution scalar_weight_of(GroupConvolution g, float w) {
   for (int c = 0; c < 3; ++c) {
-    g.value[0][c] *= w;
-    g.bound[c] *= std::abs(w);
+    const CertifiedFloat f =
+        certified_float(double(g.value[0][c]) * w, double(g.bound[c]) * std::abs(w));
+    g.value[0][c] = f.value;
+    g.bound[c] = f.bound;
   }
   return g;
 }

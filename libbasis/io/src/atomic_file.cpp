@@ -56,21 +56,19 @@ std::pair<std::string, int> make_temporary(const std::string& path) {
   return {std::string(buffer.data()), fd};
 }
 
-// Where writing `path` goes: through a symbolic link to an existing file, to that file (the
-// link stays a link); otherwise `path` itself.
-std::string through_links(const std::string& path) {
-  std::error_code error;
-  if (!std::filesystem::is_symlink(path, error)) return path;
-  const std::filesystem::path target = std::filesystem::canonical(path, error);
-  return error ? path : target.string();
-}
-
 void check_destination(const std::string& path) {
   if (path.empty()) throw FileError("output path is empty");
   if (destination_kind(path) == 2) throw FileError(path + ": is a directory");
 }
 
 }  // namespace
+
+std::string through_links(const std::string& path) {
+  std::error_code error;
+  if (!std::filesystem::is_symlink(path, error)) return path;
+  const std::filesystem::path target = std::filesystem::canonical(path, error);
+  return error ? path : target.string();
+}
 
 AtomicFileWriter::AtomicFileWriter(std::string path) : path_(through_links(path)) {
   check_destination(path_);

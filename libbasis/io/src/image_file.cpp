@@ -161,12 +161,17 @@ void write_images(const std::vector<NamedImage>& images) {
       return;
     }
   }
+  // Through a symbolic link to a file, the file is written and the link kept.
+  std::vector<std::string> targets;
+  for (const NamedImage& named : images)
+    targets.push_back(through_links(named.path));
   try {
-    for (const NamedImage& named : images) {
+    for (std::size_t k = 0; k < images.size(); ++k) {
+      const NamedImage& named = images[k];
       std::error_code error;
       if (fs::is_directory(named.path, error))
         throw FileError(named.path + ": is a directory, not an image");
-      const fs::path path(named.path);
+      const fs::path path(targets[k]);
       std::string name = ".";
       name += path.stem().string();
       name += ".partial-";
@@ -183,7 +188,7 @@ void write_images(const std::vector<NamedImage>& images) {
     }
     for (std::size_t k = 0; k < images.size(); ++k) {
       std::error_code error;
-      fs::rename(written[k], images[k].path, error);
+      fs::rename(written[k], targets[k], error);
       if (error) throw FileError(images[k].path + ": " + error.message());
     }
   } catch (...) {

@@ -112,6 +112,10 @@ TEST(AtomicFileWriter, WritesThroughSymbolicLinks) {
   EXPECT_TRUE(std::filesystem::is_symlink(dir.file("link.csv")));
   EXPECT_EQ(read(dir.file("data/target.csv")), "newer");
   EXPECT_EQ(dir.entries(), (std::vector<std::string>{"data", "link.csv"}));
+  std::vector<std::string> in_data;  // no temporary left beside the target
+  for (const auto& e : std::filesystem::directory_iterator(dir.file("data")))
+    in_data.push_back(e.path().filename().string());
+  EXPECT_EQ(in_data, std::vector<std::string>{"target.csv"});
 }
 
 TEST(AtomicFileWriter, AProcessKilledWhileWritingLeavesNothing) {

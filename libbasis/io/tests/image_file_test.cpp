@@ -2,6 +2,7 @@
 // program starts; what is written reads back (floats exactly in EXR, 8 bits clamped in PNG).
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 
@@ -45,6 +46,26 @@ TEST(ImageFile, TheImageLibraryLoadsOnTheFirstImageAndWhatIsWrittenReadsBack) {
         << error.what();
   }
   EXPECT_EQ(dir.entries(), (std::vector<std::string>{"small.exr", "small.png"}));
+}
+
+// Images written together (a render's EXR and PNG) go through a symbolic link to a file: the
+// file is replaced, the link kept, and no temporary is left in either folder.
+TEST(ImageFile, WrittenTogetherThroughSymbolicLinks) {
+  testing::TempDir dir;
+  std::filesystem::create_directory(dir.file("data"));
+  Image old_image(2, 2, 3), new_image(2, 2, 3);
+  for (std::size_t i = 0; i < new_image.pixels.size(); ++i)
+    new_image.pixels[i] = 0.25f * float(i);
+  write_image(dir.file("data/render.exr"), old_image);
+  std::filesystem::create_symlink("data/render.exr", dir.file("render.exr"));
+  write_images({{dir.file("render.exr"), &new_image}, {dir.file("render.png"), &new_image}});
+  EXPECT_TRUE(std::filesystem::is_symlink(dir.file("render.exr")));
+  EXPECT_EQ(read_image(dir.file("data/render.exr")).pixels, new_image.pixels);
+  EXPECT_EQ(dir.entries(), (std::vector<std::string>{"data", "render.exr", "render.png"}));
+  std::vector<std::string> in_data;
+  for (const auto& e : std::filesystem::directory_iterator(dir.file("data")))
+    in_data.push_back(e.path().filename().string());
+  EXPECT_EQ(in_data, std::vector<std::string>{"render.exr"});
 }
 
 }  // namespace

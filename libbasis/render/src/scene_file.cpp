@@ -8,6 +8,7 @@
 
 #include "basis/core/file_error.h"
 #include "basis/io/json_fields.h"
+#include "basis/io/text_file.h"
 
 namespace basis {
 
@@ -113,14 +114,8 @@ SceneFile parse_scene_file(const std::string& text, const std::string& name,
 }
 
 SceneFile read_scene_file(const std::string& path) {
-  check_regular_file(path, "a scene");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw FileError(path + ": " + std::strerror(errno));
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw FileError(path + ": cannot read");
-  if (text.str().size() > (1 << 22)) throw FileError(path + ": larger than 4 MiB, not a scene");
-  return parse_scene_file(text.str(), path, std::filesystem::path(path).parent_path().string());
+  const std::string text = read_text_file(path, std::size_t(1) << 22, "a scene");
+  return parse_scene_file(text, path, std::filesystem::path(path).parent_path().string());
 }
 
 }  // namespace basis

@@ -72,8 +72,8 @@ struct ConvolutionOptions {
 
 // A result computed in double as a float value and a float bound that still holds for it: the
 // value rounded to nearest, the bound plus that rounding, rounded up (so that results below the
-// normal floats keep a bound that is not zero). std::overflow_error when the value or the bound
-// lies beyond the largest float (an infinite bound, nothing certified, passes through).
+// normal floats keep a bound that is not zero; a bound beyond the floats becomes +infinity).
+// std::overflow_error when the value lies beyond the largest float or is NaN.
 struct CertifiedFloat {
   float value = 0;
   float bound = 0;

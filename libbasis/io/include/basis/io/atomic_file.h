@@ -39,6 +39,10 @@ class AtomicFileWriter {
   bool direct_ = false;
 };
 
+// Where writing `path` goes: through a symbolic link to an existing file, that file (the link
+// stays a link); otherwise `path` itself.
+std::string through_links(const std::string& path);
+
 // Writes `data` to `path` atomically. A destination that exists and is not a regular file (a
 // device such as /dev/null, a pipe) is written directly. Throws FileError; on failure no
 // temporary file is left behind and an existing file at `path` is untouched.
