@@ -16,27 +16,12 @@
 
 namespace basis {
 
-CertifiedFloat certified_float(double value, double bound) {
-  constexpr double kLargest = std::numeric_limits<float>::max();
+void throw_beyond_floats(double value) {
   if (std::isnan(value)) throw std::overflow_error("the convolution's value is not a number");
-  if (!(std::abs(value) <= kLargest)) {
-    char text[64];
-    std::snprintf(text, sizeof text, "%.3g", value);
-    throw std::overflow_error(std::string("the convolution's value (") + text +
-                              ") lies beyond what floats hold");
-  }
-  CertifiedFloat out;
-  out.value = float(value);
-  // A bound beyond the floats certifies nothing a float can say: +infinity.
-  const double widened = bound + std::abs(value - double(out.value));
-  if (!(widened <= kLargest)) {
-    out.bound = std::numeric_limits<float>::infinity();
-    return out;
-  }
-  out.bound = float(widened);
-  if (double(out.bound) < widened)
-    out.bound = std::nextafter(out.bound, std::numeric_limits<float>::infinity());
-  return out;
+  char text[64];
+  std::snprintf(text, sizeof text, "%.3g", value);
+  throw std::overflow_error(std::string("the convolution's value (") + text +
+                            ") lies beyond what floats hold");
 }
 
 namespace {

@@ -3,6 +3,10 @@
 #pragma once
 
 #include <array>
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <limits>
 #include <span>
 
 #include "basis/core/color.h"
@@ -78,7 +82,23 @@ struct CertifiedFloat {
   float value = 0;
   float bound = 0;
 };
-CertifiedFloat certified_float(double value, double bound);
+[[noreturn]] void throw_beyond_floats(double value);
+inline CertifiedFloat certified_float(double value, double bound) {
+  constexpr double kLargest = std::numeric_limits<float>::max();
+  if (!(std::abs(value) <= kLargest)) throw_beyond_floats(value);
+  CertifiedFloat out;
+  out.value = float(value);
+  const double widened = bound + std::abs(value - double(out.value));
+  if (!(widened <= kLargest)) {  // +infinity, or beyond the floats: nothing a float certifies
+    out.bound = std::numeric_limits<float>::infinity();
+    return out;
+  }
+  out.bound = float(widened);
+  // Rounded down: the next float up (widened >= 0, so the bits of the next one are one more).
+  if (double(out.bound) < widened)
+    out.bound = std::bit_cast<float>(std::bit_cast<std::uint32_t>(out.bound) + 1u);
+  return out;
+}
 
 // The integral over [0,1]^2 of a * b (group 0 of both), as convolve() does for float trees, on
 // packed trees. Results beyond the floats throw std::overflow_error (certified_float). The bound
