@@ -11,6 +11,7 @@
 #include <iostream>
 #include <limits>
 #include <sstream>
+#include <utility>
 
 #include "basis/core/file_error.h"
 #include "basis/format/qt_manifest.h"
@@ -204,11 +205,14 @@ bool same_file(const std::string& x, const std::string& y) {
 
 void check_outputs_spare_inputs(const std::vector<NamedPath>& outputs,
                                 const std::vector<NamedPath>& given) {
-  // A manifest's shards, and their checksums, are read too. JSON that is not a manifest (a spec,
-  // a scene) lists nothing; the tool's own reading reports a broken one.
-  std::vector<NamedPath> inputs = given;
+  // What each input is, for the message, and where it lies. A manifest's shards, and their
+  // checksums, are read too; JSON that is not a manifest (a spec, a scene) lists nothing, and
+  // the tool's own reading reports a broken one.
+  std::vector<std::pair<std::string, std::string>> inputs;
   for (const NamedPath& in : given) {
-    if (in.path.empty() || !is_manifest(in.path)) continue;
+    if (in.path.empty()) continue;
+    inputs.push_back({"the file " + in.option + " reads", in.path});
+    if (!is_manifest(in.path)) continue;
     CaptureManifest manifest;
     try {
       manifest = read_manifest(in.path);
@@ -216,17 +220,18 @@ void check_outputs_spare_inputs(const std::vector<NamedPath>& outputs,
       continue;
     }
     for (std::size_t k = 0; k < manifest.shards.size(); ++k) {
-      inputs.push_back({in.option + "'s manifest", manifest.shard_path(k)});
-      inputs.push_back({in.option + "'s manifest", checksum_path(manifest.shard_path(k))});
+      inputs.push_back({"a shard " + in.path + " lists", manifest.shard_path(k)});
+      inputs.push_back(
+          {"the checksum of a shard " + in.path + " lists", checksum_path(manifest.shard_path(k))});
     }
   }
   for (std::size_t k = 0; k < outputs.size(); ++k) {
     const NamedPath& out = outputs[k];
     if (out.path.empty()) continue;
-    for (const NamedPath& in : inputs)
-      if (!in.path.empty() && same_file(out.path, in.path))
-        throw UsageError(out.option + " " + out.path + " is the file " + in.option +
-                         " reads: writing it would destroy the input");
+    for (const auto& [what, path] : inputs)
+      if (same_file(out.path, path))
+        throw UsageError(out.option + " " + out.path + " is " + what +
+                         ": writing it would destroy the input");
     for (std::size_t j = 0; j < k; ++j)
       if (!outputs[j].path.empty() && same_file(out.path, outputs[j].path))
         throw UsageError(outputs[j].option + " and " + out.option + " name the same file, " +

@@ -371,8 +371,9 @@ TEST(BadInputMatrix, OutputsThatWouldDestroyAnInputAreRefused) {
   // A manifest's shards are inputs too.
   ASSERT_EQ(run_tool("qtmerge", {"shard.0.qt", "--manifest", "m.qtm", "-q"}, dir.path()).status, 0);
   const std::string shard = testing::slurp(dir.file("shard.0.qt"));
-  check(dir, "qtmerge", {{"m.qtm", "-o", "shard.0.qt"}, 2, "shard.0.qt is the file inputs's"});
-  check(dir, "qtconvolve", {{"ok.qt", "m.qtm", "-o", "shard.0.qt.xxh128"}, 2, "manifest"});
+  check(dir, "qtmerge", {{"m.qtm", "-o", "shard.0.qt"}, 2, "shard.0.qt is a shard m.qtm lists"});
+  check(dir, "qtconvolve",
+        {{"ok.qt", "m.qtm", "-o", "shard.0.qt.xxh128"}, 2, "the checksum of a shard m.qtm lists"});
   EXPECT_EQ(testing::slurp(dir.file("shard.0.qt")), shard);
   EXPECT_EQ(testing::slurp(dir.file("ok.qt")), table);
   EXPECT_EQ(testing::slurp(dir.file("ok.json")), spec);
