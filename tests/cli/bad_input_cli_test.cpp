@@ -285,9 +285,7 @@ TEST(BadInputMatrix, FifosAreRefusedNotWaitedOn) {
   check(dir, "capture2qt",
         {{"--env", "pipe.exr", "--at", "0,0,0", "-o", "out.qt"}, 1, "pipe.exr: is not a regular"});
   check(dir, "capture2qt",
-        {{"--env-constant", "1,1,1", "--points", "pipe.txt", "-o", "out.qt"},
-         1,
-         "pipe.txt: is not a regular file"});
+        {{"--env-constant", "1,1,1", "--points", "pipe.txt", "-o", "out.qt"}, 1, "pipe.txt"});
   check(dir, "capture2qt",
         {{"--env-constant", "1,1,1", "--scene", "pipe.obj", "--sample", "4", "-o", "out.qt"},
          1,
@@ -300,6 +298,15 @@ TEST(BadInputMatrix, FifosAreRefusedNotWaitedOn) {
   const auto piped = run_tool("qtinfo", {"piped.qt", "--json"}, dir.path());
   ASSERT_EQ(piped.status, 0) << piped.err;
   EXPECT_EQ(nlohmann::json::parse(piped.out)["kind"], "brdf-table");
+  // Points too (--points <(...) in a shell).
+  const std::string points =
+      "printf '0,0,0,0,0,1\\n1,0,0,0,0,1\\n' | '" +
+      (testing::tool_directory() / "capture2qt").string() +
+      "' --env-constant 1,1,1 --points /dev/stdin --res 8 -q -o piped_points.qt";
+  EXPECT_EQ(std::system(("cd '" + dir.path() + "' && " + points).c_str()), 0) << points;
+  const auto captured = run_tool("qtinfo", {"piped_points.qt", "--json"}, dir.path());
+  ASSERT_EQ(captured.status, 0) << captured.err;
+  EXPECT_EQ(nlohmann::json::parse(captured.out)["captures"]["points"], 2);
 }
 
 // File names that are not UTF-8 still give --json output, their bad bytes replaced.

@@ -10,13 +10,13 @@
 #include <vector>
 
 #include "basis/core/file_error.h"
+#include "basis/io/text_file.h"
 
 namespace basis {
 
 std::vector<SurfacePoint> read_points(const std::string& path) {
-  check_regular_file(path);
-  std::ifstream in(path);
-  if (!in) throw FileError(path + ": " + std::strerror(errno));
+  // Read whole, from a file or a pipe (--points <(...)): at most about 200 bytes a point.
+  std::istringstream in(read_text_file(path, kMaxSurfacePoints * 200, "a points file"));
   std::vector<SurfacePoint> points;
   std::string line;
   for (int number = 1; std::getline(in, line); ++number) {
