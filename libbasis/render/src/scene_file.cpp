@@ -1,10 +1,6 @@
 #include "basis/render/scene_file.h"
 
-#include <cerrno>
-#include <cstring>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 
 #include "basis/core/file_error.h"
 #include "basis/io/json_fields.h"
