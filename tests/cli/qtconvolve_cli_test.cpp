@@ -162,6 +162,30 @@ TEST(QtconvolveCli, CertifiedBoundHoldsAgainstTheFullResolutionReference) {
               << "point " << r["index"] << " channel " << c << " wo " << wo;
         }
       }
+      // Accuracy targets stop pairs early: the bound still holds against the reference, and it
+      // grows past the full descent's by at most about the target's share of the value.
+      for (const double accuracy : {0.05, 0.2}) {
+        const auto targeted =
+            convolve_json(dir, {"glossy.qt", "points.qt", "--wo", wo, "--reference", "--lights",
+                                lights, "--accuracy", std::to_string(accuracy), "-q"});
+        ASSERT_EQ(targeted["results"].size(), 24u);
+        int looser = 0;  // values whose bound the target let grow: the target took effect
+        for (std::size_t k = 0; k < 24; ++k)
+          for (int c = 0; c < 3; ++c) {
+            const auto& r = targeted["results"][k];
+            const double value = r["value"][c].get<double>();
+            const double reference = r["reference"][c].get<double>();
+            const double bound = r["bound"][c].get<double>();
+            EXPECT_LE(std::abs(value - reference), bound * (1 + 1e-4) + 1e-6 * reference)
+                << "accuracy " << accuracy << " point " << k << " channel " << c << " wo " << wo;
+            const double full_bound = j["results"][k]["bound"][c].get<double>();
+            EXPECT_LE(bound, full_bound + 1.25 * accuracy * std::abs(value))
+                << "accuracy " << accuracy << " point " << k << " channel " << c << " wo " << wo;
+            looser += bound > full_bound * 1.01;
+          }
+        // At the normal 9 or 10 of the 72 values at 0.05, elsewhere 31 to 72.
+        EXPECT_GE(looser, 72 / 10) << "accuracy " << accuracy << " wo " << wo;
+      }
     }
 }
 
@@ -216,9 +240,10 @@ TEST(QtconvolveCli, TiltedNormalsAreCompensatedWithinTheDocumentedAccuracy) {
             0);
   const Brdf brdf = Phong{{0.5, 0.5, 0.5}, {0.4, 0.4, 0.4}, 100};
   const Frame record = Frame::from_normal(record_normal);
-  // Documented accuracy (README): compensated within 1 % up to 5 degrees, 2 % at 10 degrees
-  // (the sun, kept apart, turns with the surface exactly).
-  const std::map<double, double> limit = {{2, 0.01}, {5, 0.01}, {10, 0.02}};
+  // Documented accuracy in general (README): compensated within 1 % up to 5 degrees, 2 % at 10
+  // degrees. This surface's mean errors measure 0.02, 0.12 and 0.57 % (the sun, kept apart,
+  // turns with the surface exactly), and are held to a little above those.
+  const std::map<double, double> limit = {{2, 0.001}, {5, 0.003}, {10, 0.008}};
   for (const double degrees : {2.0, 5.0, 10.0}) {
     double error_none = 0, error_compensated = 0;
     int count = 0;

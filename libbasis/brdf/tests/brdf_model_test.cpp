@@ -97,6 +97,73 @@ TEST(BrdfModels, NormalisedLobesReflectEverythingAtNormalIncidence) {
   EXPECT_NEAR(testing::reference_albedo(Lambert{{0.3, 0.3, 0.3}}, Vec3(0.6, 0, 0.8), 0), 0.3, 1e-4);
 }
 
+// The models against a second implementation from their textbook forms, in the angles of
+// directions drawn in spherical coordinates (long double): Phong through the angle to the
+// mirror direction; Blinn-Phong, Ward and GGX through the half angle theta_h; GGX with Walter
+// et al.'s D = 1 / (pi a^2 cos^4 theta_h (1 + tan^2 theta_h / a^2)^2), Smith's
+// G1 = 2 / (1 + sqrt(1 + a^2 tan^2 theta)) and Schlick's F through the angle between wi and h.
+TEST(BrdfModels, MatchTheirTextbookFormsInAngles) {
+  using Real = long double;
+  const Real pi = std::numbers::pi_v<long double>;
+  struct Angles {
+    Real theta, phi;
+    Real x() const { return std::sin(theta) * std::cos(phi); }
+    Real y() const { return std::sin(theta) * std::sin(phi); }
+    Real z() const { return std::cos(theta); }
+  };
+  auto angle_between = [](Real ax, Real ay, Real az, Real bx, Real by, Real bz) {
+    const Real cross =
+        std::hypot(std::hypot(ay * bz - az * by, az * bx - ax * bz), ax * by - ay * bx);
+    return std::atan2(cross, ax * bx + ay * by + az * bz);
+  };
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> theta(0.01, 1.55), phi(0, 2 * std::numbers::pi);
+  int compared = 0;
+  for (int k = 0; k < 400; ++k) {
+    const Angles i{theta(rng), phi(rng)}, o{theta(rng), phi(rng)};
+    const Vec3 wi(double(i.x()), double(i.y()), double(i.z()));
+    const Vec3 wo(double(o.x()), double(o.y()), double(o.z()));
+    // Half vector h = (wi + wo) / |wi + wo|, its polar angle, and the angle between wi and h.
+    const Real hx = i.x() + o.x(), hy = i.y() + o.y(), hz = i.z() + o.z();
+    const Real theta_h = std::atan2(std::hypot(hx, hy), hz);
+    const Real theta_d = angle_between(i.x(), i.y(), i.z(), hx, hy, hz);
+    const Real tan2_h = std::tan(theta_h) * std::tan(theta_h);
+    // The angle between wi and the mirror of wo about the normal.
+    const Real alpha_r = angle_between(i.x(), i.y(), i.z(), -o.x(), -o.y(), o.z());
+    const double kd = 0.15, ks = 0.55, f0 = 0.7;
+    auto check = [&](const Brdf& brdf, Real expected, const char* name) {
+      const double got = evaluate(brdf, wi, wo)[1];
+      EXPECT_NEAR(got, double(expected), 1e-9 * double(expected) + 1e-12)
+          << name << " at theta_i " << double(i.theta) << ", theta_o " << double(o.theta);
+      ++compared;
+    };
+    for (const double n : {3.0, 40.0, 500.0}) {
+      const Real cos_r = std::max(Real(0), std::cos(alpha_r));
+      check(Phong{{0, kd, 0}, {0, ks, 0}, n},
+            kd / pi + ks * (n + 2) / (2 * pi) * std::pow(cos_r, Real(n)), "phong");
+      check(BlinnPhong{{0, kd, 0}, {0, ks, 0}, n},
+            kd / pi + ks * (n + 8) / (8 * pi) * std::pow(std::cos(theta_h), Real(n)),
+            "blinn-phong");
+    }
+    for (const double a : {0.05, 0.2, 0.7}) {
+      const Real a2 = Real(a) * a;
+      check(Ward{{0, kd, 0}, {0, ks, 0}, a},
+            kd / pi + ks * std::exp(-tan2_h / a2) / (4 * pi * a2 * std::sqrt(i.z() * o.z())),
+            "ward");
+      const Real cos4 = std::pow(std::cos(theta_h), Real(4));
+      const Real d = 1 / (pi * a2 * cos4 * (1 + tan2_h / a2) * (1 + tan2_h / a2));
+      auto g1 = [&](Real polar) {
+        const Real t = std::tan(polar);
+        return 2 / (1 + std::sqrt(1 + a2 * t * t));
+      };
+      const Real f = f0 + (1 - f0) * std::pow(1 - std::cos(theta_d), Real(5));
+      check(Ggx{{0, kd, 0}, {0, f0, 0}, a},
+            kd / pi + d * g1(i.theta) * g1(o.theta) * f / (4 * i.z() * o.z()), "ggx");
+    }
+  }
+  EXPECT_EQ(compared, 400 * 12);
+}
+
 std::string write_spec(const TempDir& dir, const std::string& name, const std::string& text) {
   const std::string path = dir.file(name);
   std::ofstream(path) << text;

@@ -64,6 +64,29 @@ TEST_P(QuadtreeProperties, ReconstructionWithinToleranceAndIntegralExact) {
   }
 }
 
+// The locally relative cut (BRDF tables' default): every texel of the reconstruction lies
+// within tolerance x max(|its quadrant's value|, floor x |mean|) of the input texel.
+TEST_P(QuadtreeProperties, LocallyRelativeCutHoldsEveryTexelNearItsQuadrantOrTheFloor) {
+  const int n = std::get<0>(GetParam()), channels = std::get<1>(GetParam());
+  for (const auto& [name, grid] : test_functions(n, channels, 12))
+    for (double tolerance : {0.01, 0.05, 0.3})
+      for (double floor : {0.05, 0.2, 1.0}) {
+        const Quadtree tree = project(grid, {.tolerance = tolerance, .local_floor = floor});
+        const Grid recon = reconstruct(tree.view());
+        for (int c = 0; c < channels; ++c) {
+          const double mean = std::abs(grid.mean(0, c));
+          for (int y = 0; y < n; ++y)
+            for (int x = 0; x < n; ++x) {
+              const double input = grid.at(0, c, x, y), value = recon.at(0, c, x, y);
+              const double allowed = tolerance * std::max(std::abs(value), floor * mean);
+              ASSERT_LE(std::abs(value - input), allowed * (1 + 1e-6) + 1e-6 * std::abs(input))
+                  << name << " tolerance " << tolerance << " floor " << floor << " texel " << x
+                  << "," << y;
+            }
+        }
+      }
+}
+
 TEST_P(QuadtreeProperties, StoredErrorBoundsEveryTexel) {
   const int n = std::get<0>(GetParam()), channels = std::get<1>(GetParam());
   for (const auto bound : {ProjectionOptions::Bound::exact, ProjectionOptions::Bound::paper})
@@ -182,6 +205,13 @@ TEST(Quadtree, MaxDepthLimitsLevels) {
     const auto histogram = depth_histogram(tree.view());
     EXPECT_EQ(int(histogram.size()), depth);
     EXPECT_EQ(histogram.back(), 1 << (2 * (depth - 1)));  // random data refines everywhere
+    // Cut off above the tolerance, the stored bounds still cover every texel's deviation.
+    int checked = 0;
+    for_each_quadrant_deviation(tree.view(), g, [&](float deviation, float error, float v) {
+      ASSERT_LE(deviation, error + 1e-6f * (v + deviation) + 1e-7f) << "depth " << depth;
+      checked += deviation > 0;
+    });
+    EXPECT_GT(checked, 0) << "depth " << depth;
   }
 }
 
@@ -226,12 +256,73 @@ TEST(Quadtree, ExtraGroupsRideAlongWithoutChangingTheCut) {
   const Quadtree with_groups = project(g, {.tolerance = 0.05});
   const Quadtree alone = project(base, {.tolerance = 0.05});
   ASSERT_EQ(with_groups.node_count(), alone.node_count());
-  // Every group's leaves hold the exact average of that group over the leaf.
-  const Grid recon = reconstruct(with_groups.view());
+  // Every group's leaves hold the exact average of that group over the leaf (in double).
+  int leaves = 0;
+  for_each_leaf(with_groups.view(), [&](int node, int q, int level, int x, int y) {
+    const int size = 32 >> level;
+    ++leaves;
+    for (int group = 0; group < 3; ++group)
+      for (int c = 0; c < 3; ++c) {
+        double sum = 0, magnitude = 0;
+        for (int ty = y * size; ty < (y + 1) * size; ++ty)
+          for (int tx = x * size; tx < (x + 1) * size; ++tx) {
+            sum += g.at(group, c, tx, ty);
+            magnitude = std::max(magnitude, double(std::abs(g.at(group, c, tx, ty))));
+          }
+        ASSERT_NEAR(with_groups.view().value(node, group, c, q), sum / (size * size),
+                    1e-6 * magnitude)
+            << "group " << group << " channel " << c << " leaf at level " << level;
+      }
+  });
+  EXPECT_GT(leaves, 4);
   for (int group = 1; group < 3; ++group)
     for (int c = 0; c < 3; ++c)
       EXPECT_NEAR(integrate(with_groups.view(), group, c), g.mean(group, c), 1e-5);
-  EXPECT_EQ(recon.groups, 3);
+}
+
+// Cut on all groups: every group's texels lie within group_tolerance_scale times group 0's
+// tolerance of the same channel, and the stored bounds of every group cover its deviations.
+TEST(Quadtree, CuttingOnAllGroupsKeepsEveryGroupWithinItsTolerance) {
+  const auto functions = testing::test_functions(64, 3, 9);
+  Grid g(64, 3, 3);
+  for (int group = 0; group < 3; ++group) {
+    const Grid& source = functions[(group + 1) % functions.size()].grid;
+    std::copy(source.texels.begin(), source.texels.end(),
+              g.texels.begin() + std::ptrdiff_t(group) * std::ptrdiff_t(source.texels.size()));
+  }
+  for (const double scale : {1.0, 10.0}) {
+    const ProjectionOptions options{
+        .tolerance = 0.05, .cut_on_all_groups = true, .group_tolerance_scale = scale};
+    const Quadtree tree = project(g, options);
+    const QuadtreeView view = tree.view();
+    ASSERT_EQ(view.shape().bounded_groups, 3);
+    EXPECT_GT(tree.node_count(), project(g, {.tolerance = 0.05}).node_count()) << scale;
+    const Grid recon = reconstruct(view);
+    for (int group = 0; group < 3; ++group)
+      for (int c = 0; c < 3; ++c) {
+        const double allowed = (group == 0 ? 1 : scale) * 0.05 * std::abs(g.mean(0, c));
+        for (int y = 0; y < 64; ++y)
+          for (int x = 0; x < 64; ++x) {
+            const double input = g.at(group, c, x, y);
+            ASSERT_LE(std::abs(recon.at(group, c, x, y) - input),
+                      allowed * (1 + 1e-6) + 1e-6 * std::abs(input))
+                << "scale " << scale << " group " << group << " channel " << c;
+          }
+      }
+    for_each_leaf(view, [&](int node, int q, int level, int x, int y) {
+      const int size = 64 >> level;
+      for (int group = 0; group < 3; ++group)
+        for (int c = 0; c < 3; ++c) {
+          const float v = view.value(node, group, c, q);
+          float deviation = 0;
+          for (int ty = y * size; ty < (y + 1) * size; ++ty)
+            for (int tx = x * size; tx < (x + 1) * size; ++tx)
+              deviation = std::max(deviation, std::abs(g.at(group, c, tx, ty) - v));
+          ASSERT_LE(deviation, view.error(node, group, c, q) * (1 + 1e-6f) + 1e-6f * std::abs(v))
+              << "group " << group << " channel " << c;
+        }
+    });
+  }
 }
 
 TEST(Quadtree, RejectsInvalidInput) {
