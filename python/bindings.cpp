@@ -386,7 +386,8 @@ PYBIND11_MODULE(basis, m) {
           },
           py::arg("group") = 0, py::arg("channel") = 0,
           "The integral over the unit square of one group and channel: the root's average as "
-          "stored (to half precision), within the tree's bound of the source grid's mean.");
+          "stored (2^-11 relative in halves; in captures' shared-exponent words 1/511.5 of the "
+          "largest channel), within the tree's bound of the source grid's mean.");
 
   m.def(
       "project",

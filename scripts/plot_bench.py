@@ -9,6 +9,7 @@ import csv
 import math
 import os
 import sys
+import tempfile
 
 import matplotlib
 
@@ -17,6 +18,30 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 STYLE = {"quadtree": "tab:green", "quadtree_targeted": "tab:olive", "dense_naive": "tab:gray",
          "dense_simd": "black", "sh": "tab:blue", "haar": "tab:purple"}
+
+
+def publish(path, write):
+    """Writes a file whole or not at all: write(binary file) fills a temporary in the same
+    folder, which then replaces path, so an error or an interrupt leaves any older file as it
+    was."""
+    folder, name = os.path.split(path)
+    handle, temporary = tempfile.mkstemp(prefix="." + name + ".", dir=folder or ".")
+    try:
+        with os.fdopen(handle, "wb") as out:
+            write(out)
+        mask = os.umask(0)
+        os.umask(mask)
+        os.chmod(temporary, 0o666 & ~mask)
+        os.replace(temporary, path)
+    except BaseException:
+        if os.path.exists(temporary):
+            os.unlink(temporary)
+        raise
+
+
+def save_figure(figure, path, dpi):
+    publish(path, lambda out: figure.savefig(out, format="png", dpi=dpi))
+    plt.close(figure)
 
 
 def series(rows):
@@ -64,7 +89,7 @@ def panel_grid(rows, x_key, x_label, path):
     handles, labels = axes[0][0].get_legend_handles_labels()
     figure.legend(handles, labels, loc="lower center", ncol=min(8, len(labels)), fontsize=8)
     figure.tight_layout(rect=(0, 0.07, 1, 1))
-    figure.savefig(path, dpi=90)
+    save_figure(figure, path, 90)
 
 
 def rotation(path_csv, path_png):
@@ -89,7 +114,7 @@ def rotation(path_csv, path_png):
     axes[0][0].set_ylabel("mean relative error (%)")
     axes[0][0].legend(fontsize=8)
     figure.tight_layout()
-    figure.savefig(path_png, dpi=100)
+    save_figure(figure, path_png, 100)
 
 
 def lookups(path_csv, path_png):
@@ -122,7 +147,7 @@ def lookups(path_csv, path_png):
         axis.legend(fontsize=7)
     axes[0][0].set_ylabel("relative error against the map (%)")
     figure.tight_layout()
-    figure.savefig(path_png, dpi=100)
+    save_figure(figure, path_png, 100)
 
 
 def main(folder):
@@ -176,7 +201,8 @@ def summary(folder):
                 f"{100 * float(r[k]):.2f}" for k in ("texels", "table_tree", "capture_tree",
                                                      "interpolation", "total", "bilinear_total"))
                 + " |")
-    open(os.path.join(folder, "summary.md"), "w").write("\n".join(lines) + "\n")
+    text = "\n".join(lines) + "\n"
+    publish(os.path.join(folder, "summary.md"), lambda out: out.write(text.encode()))
 
 
 if __name__ == "__main__":

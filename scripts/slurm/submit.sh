@@ -13,15 +13,18 @@
 #   --partition P         partition of every job
 #   --throttle K          at most K array tasks at a time (sbatch --array=...%K)
 #   --cpus C              cores per capture task (default 1)
-#   --mem-per-cpu M       memory per core, e.g. 2G
-#   --time T              time limit per task, e.g. 1:00:00
+#   --mem-per-cpu M       memory per core of every job, e.g. 2G
+#   --time T              time limit of every job (each task of an array), e.g. 1:00:00
+#   --merge-cpus C        cores of the merge job, which checks and restores every shard with
+#                         all of them (default 1; at 10^8 points it is the serial step)
+#   --merge-time T        time limit of the merge job (default --time's)
 #   --dry-run             print the sbatch commands instead of running them
 # Prints the job IDs, one per line: capture, merge[, lookup, gather]; logs go to OUT_DIR/logs.
 # Jobs run in the folder submit.sh runs in, so relative paths in the arguments hold. The tools
 # are found in BASIS_BIN (exported to the jobs), else on PATH.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
-table="" lookup_shards="" wo="" join="" throttle="" cpus=1 dry_run=0
+table="" lookup_shards="" wo="" join="" throttle="" cpus=1 merge_cpus=1 merge_time="" dry_run=0
 common=()
 while [ $# -gt 0 ]; do
   case $1 in
@@ -34,8 +37,10 @@ while [ $# -gt 0 ]; do
     --cpus) cpus=$2; shift 2 ;;
     --mem-per-cpu) common+=(--mem-per-cpu="$2"); shift 2 ;;
     --time) common+=(--time="$2"); shift 2 ;;
+    --merge-cpus) merge_cpus=$2; shift 2 ;;
+    --merge-time) merge_time=$2; shift 2 ;;
     --dry-run) dry_run=1; shift ;;
-    -h|--help) sed -n '2,21p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,24p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) break ;;
   esac
 done
@@ -76,7 +81,10 @@ submit() {  # submit NAME LOG sbatch-arguments...: prints the job ID
 
 capture=$(submit capture "%x-%A_%a.log" --array="0-$((shards - 1))$throttle" --cpus-per-task="$cpus" \
   "$here/capture.sbatch" "$out" "$shards" "$@")
-merge=$(submit merge "%x-%j.log" --dependency=afterok:"$capture" "$here/merge.sbatch" "$out" $join)
+merge_args=(--cpus-per-task="$merge_cpus")
+[ -n "$merge_time" ] && merge_args+=(--time="$merge_time")
+merge=$(submit merge "%x-%j.log" --dependency=afterok:"$capture" "${merge_args[@]}" \
+  "$here/merge.sbatch" "$out" $join)
 echo "$capture"
 echo "$merge"
 if [ -n "$table" ]; then

@@ -104,10 +104,10 @@ TEST_P(GlossyReflections, OfASunMatchDirectIntegration) {
 INSTANTIATE_TEST_SUITE_P(
     QtconvolveCli, GlossyReflections,
     ::testing::Values(
-        Glossy{"phong40", R"({"model": "phong", "kd": 0.2, "ks": 0.6, "exponent": 40})", 0.008},
-        Glossy{"ggx", R"({"model": "ggx", "kd": 0.1, "f0": 0.9, "alpha": 0.2})", 0.008},
+        Glossy{"phong40", R"({"model": "phong", "kd": 0.2, "ks": 0.6, "exponent": 40})", 0.006},
+        Glossy{"ggx", R"({"model": "ggx", "kd": 0.1, "f0": 0.9, "alpha": 0.2})", 0.006},
         Glossy{"blinn100", R"({"model": "blinn-phong", "kd": 0.2, "ks": 0.6, "exponent": 100})",
-               0.008}),
+               0.006}),
     [](const ::testing::TestParamInfo<Glossy>& info) { return info.param.name; });
 
 // Off the grid's rows wo reads four entries, folded into one tree for the batch, whose bound the

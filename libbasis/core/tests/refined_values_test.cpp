@@ -109,7 +109,7 @@ TEST(RefinedValues, DerivedBoundsHoldForTheTexels) {
         // Not much looser than the texels' own deviation (l2: the codes' rounding up and the
         // children's offsets from their means).
         if (!check.bound_ratios.empty()) {
-          EXPECT_LE(median(check.bound_ratios), 1.5);
+          EXPECT_LE(median(check.bound_ratios), 1.25);
         }
       }
 }

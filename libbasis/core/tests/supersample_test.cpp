@@ -45,8 +45,8 @@ TEST(Supersample, GradedEdgesIntegrateAnInverseSquareRootSingularity) {
     const double plain = largest_error_at_the_edges(n, false);
     std::printf("[  INFO    ] n %2d: largest relative error %.2e graded, %.2e plain\n", n, graded,
                 plain);
-    // Within the quadrature's relative tolerance (1e-3 by default).
-    EXPECT_LT(graded, 1e-3) << n;
+    // Well within the quadrature's relative tolerance (1e-3 by default): 3.3e-4 measured.
+    EXPECT_LT(graded, 5e-4) << n;
     // Without grading, the edge texels keep a share of the singularity's mass out of reach of
     // the finest cells: the same averages err by far more.
     EXPECT_GT(plain, 5e-3) << n;

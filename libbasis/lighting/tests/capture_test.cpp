@@ -166,7 +166,7 @@ void check_against_map(const std::string& name, const Environment& env) {
     const Rgb lo = white_lambert(
         capture(env, nullptr, Vec3::Zero(), Frame::from_normal(n), {.resolution = 64}));
     for (int c = 0; c < 3; ++c) {
-      EXPECT_NEAR(lo[c], e[c] / std::numbers::pi, 0.008 * e[c] / std::numbers::pi)
+      EXPECT_NEAR(lo[c], e[c] / std::numbers::pi, 0.0075 * e[c] / std::numbers::pi)
           << name << " normal " << n.transpose() << " channel " << c;
       worst =
           std::max(worst, std::abs(lo[c] - e[c] / std::numbers::pi) / (e[c] / std::numbers::pi));
@@ -181,8 +181,13 @@ TEST(Capture, LambertMatchesDirectIntegrationOfASyntheticMap) {
 }
 
 TEST(Capture, LambertMatchesDirectIntegrationOfRealProbes) {
+  int probes = 0;
   for (const std::string name : {"grace", "uffizi", "pisa", "ennis", "wells"})
-    if (const auto probe = testing::real_probe(name)) check_against_map(name, Environment(*probe));
+    if (const auto probe = testing::real_probe(name)) {
+      check_against_map(name, Environment(*probe));
+      ++probes;
+    }
+  if (probes == 0) GTEST_SKIP() << "no shared probe is present";
 }
 
 // A wall in the plane x = -0.001, far larger than its distance, hides the directions with

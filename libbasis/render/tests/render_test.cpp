@@ -226,8 +226,9 @@ TEST(RadianceCache, ConvergesToTheReferenceAsRecordsGrowDenser) {
   EXPECT_LT(errors[1], errors[0]);
   EXPECT_LT(errors[2], errors[1]);
   // A record at every pixel leaves the table's and the records' own errors and the reference's
-  // noise (about 1e-4 at 4096 samples): 5e-4 is an RMS relative error of about 2 %.
-  EXPECT_LT(errors[2], 5e-4);
+  // noise (about 1e-4 at 4096 samples), 1.9e-4 measured: 3e-4 is an RMS relative error of
+  // about 1.7 %.
+  EXPECT_LT(errors[2], 3e-4);
 }
 
 TEST(RadianceCache, DenseRecordsGiveTheQuadtreeRecordsResults) {

@@ -6,15 +6,16 @@
 #include <atomic>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <memory>
 #include <numbers>
+#include <span>
+#include <sstream>
 #include <stdexcept>
 
 #include "basis/brdf/brdf_table.h"
 #include "basis/brdf/rgl.h"
-#include "basis/core/file_error.h"
+#include "basis/io/atomic_file.h"
 #include "basis/lighting/capture.h"
 #include "basis/lighting/embree_scene.h"
 #include "basis/lighting/mesh.h"
@@ -201,24 +202,24 @@ std::vector<RotationStudyRow> run_rotation_study(const Environment& environment,
 }
 
 void write_comparison_csv(const std::string& path, const std::vector<ComparisonRow>& rows) {
-  std::ofstream out(path);
+  std::ostringstream out;
   out << "method,param,brdf,light,bytes,project_ns,convolve_ns,rel_error\n";
   for (const auto& r : rows)
     out << r.method << "," << r.param << "," << r.brdf << "," << r.light << "," << r.bytes << ","
         << r.project_ns << "," << r.convolve_ns << "," << r.rel_error << "\n";
-  if (!out) throw FileError(path + ": cannot write");
+  write_file_atomically(path, std::as_bytes(std::span(out.view().data(), out.view().size())));
 }
 
 void write_rotation_csv(const std::string& path, const std::string& map,
                         const std::vector<RotationStudyRow>& rows) {
-  std::ofstream out(path);
+  std::ostringstream out;
   out << "map,brdf,tilt_degrees,method,rel_error\n";
   for (const RotationStudyRow& r : rows)
     out << map << "," << r.brdf << "," << r.row.tilt_degrees << ","
         << (r.row.method == "sh_rotated" ? "sh" + std::to_string(r.row.sh_order) + "_rotated"
                                          : r.row.method)
         << "," << r.row.rel_error << "\n";
-  if (!out) throw FileError(path + ": cannot write");
+  write_file_atomically(path, std::as_bytes(std::span(out.view().data(), out.view().size())));
 }
 
 }  // namespace basis

@@ -5,14 +5,15 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <numbers>
 #include <random>
+#include <span>
+#include <sstream>
 
 #include "basis/brdf/brdf_table.h"
 #include "basis/core/dense.h"
-#include "basis/core/file_error.h"
 #include "basis/core/parabolic.h"
+#include "basis/io/atomic_file.h"
 #include "basis/io/image_file.h"
 #include "basis/lighting/capture.h"
 #include "basis/lighting/shading.h"
@@ -245,22 +246,22 @@ std::vector<WoErrorSources> wo_error_sources(const std::vector<WoStudyMap>& maps
 }
 
 void write_wo_csv(const std::string& path, const std::vector<WoStudyRow>& rows) {
-  std::ofstream out(path);
+  std::ostringstream out;
   out << "brdf,map,method,wo_resolution,offset,mean_error,max_error\n";
   for (const WoStudyRow& r : rows)
     out << r.brdf << "," << r.map << "," << r.method << "," << r.wo_resolution << "," << r.offset
         << "," << r.mean_error << "," << r.max_error << "\n";
-  if (!out) throw FileError(path + ": cannot write");
+  write_file_atomically(path, std::as_bytes(std::span(out.view().data(), out.view().size())));
 }
 
 void write_wo_sources_csv(const std::string& path, const std::vector<WoErrorSources>& rows) {
-  std::ofstream out(path);
+  std::ostringstream out;
   out << "brdf,wo_resolution,texels,table_tree,capture_tree,interpolation,total,bilinear_total\n";
   for (const WoErrorSources& r : rows)
     out << r.brdf << "," << r.wo_resolution << "," << r.texels << "," << r.table_tree << ","
         << r.capture_tree << "," << r.interpolation << "," << r.total << "," << r.bilinear_total
         << "\n";
-  if (!out) throw FileError(path + ": cannot write");
+  write_file_atomically(path, std::as_bytes(std::span(out.view().data(), out.view().size())));
 }
 
 }  // namespace basis

@@ -87,7 +87,8 @@ TEST(RotationCompensation, CutsTheTiltErrorUnderRealProbes) {
   std::vector<std::pair<std::string, Environment>> maps;
   for (const std::string name : {"grace", "uffizi"})
     if (const auto probe = testing::real_probe(name)) maps.emplace_back(name, Environment(*probe));
-  if (!maps.empty()) check_compensation(maps);
+  if (maps.empty()) GTEST_SKIP() << "neither shared probe (grace, uffizi) is present";
+  check_compensation(maps);
 }
 
 // Tilts up to 30 degrees, every method's error reported: the quadtree (uncompensated,
