@@ -91,6 +91,8 @@ int main(int argc, char** argv) {
     options.tilt_derivatives = !no_tilt;
     options.wo_derivatives = !no_wo_derivatives;
     options.bounds = bounds == "linf" ? basis::BoundKind::linf : basis::BoundKind::l2;
+    for (const std::string& warning : basis::table_resolution_warnings(spec.brdf, options))
+      std::fprintf(stderr, "brdf2qt: warning: %s: %s\n", spec_path.c_str(), warning.c_str());
 
     const auto arena = basis::cli::thread_arena(threads);
     basis::cli::ProgressBar progress("brdf2qt", quiet);

@@ -365,6 +365,23 @@ def test_a_measured_table_whose_data_is_gone_warns_and_shades_from_its_texels(ma
     np.testing.assert_allclose(from_texels, expected, rtol=1e-5)
 
 
+def test_tabulate_warns_of_resolutions_too_coarse_for_the_lobe():
+    """As brdf2qt warns: a Phong 10^4 lobe over 2 x 2 texels, whose texel averages lose it (its
+    albedo at the normal is 1 by the normalisation), and 3 x 3 outgoing directions."""
+    sharp = basis.Brdf.from_json('{"model": "phong", "ks": 1, "exponent": 10000}')
+    with pytest.warns(RuntimeWarning) as record:
+        table = basis.tabulate(sharp, wo_res=3, wi_res=2, tilt=False)
+    messages = [str(w.message) for w in record]
+    assert any("texel averages may miss it" in m for m in messages), messages
+    assert any("3 x 3 outgoing directions are coarser" in m for m in messages), messages
+    albedo = np.pi * table.entry(1, 1).reconstruct()[0].mean(axis=(1, 2))
+    assert albedo.max() < 0.5
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        basis.tabulate(basis.Brdf.from_json('{"model": "phong", "ks": 1, "exponent": 100}'),
+                       wi_res=16, tilt=False)
+
+
 def test_provenance_of_a_source_whose_name_is_not_utf8(tmp_path):
     """A spec named with bytes that are not UTF-8: the table's provenance names it as
     os.fsdecode does, and the name leads back to the file."""

@@ -52,6 +52,28 @@ TEST(Brdf2qtCli, TabulatesASpecWithDefaultsAndOverrides) {
   EXPECT_EQ(testing::slurp(dir.file("other.qt")), testing::slurp(dir.file("again.qt")));
 }
 
+// Resolutions too coarse for the lobe are written as asked, with one warning line each naming
+// the spec; the defaults draw none.
+TEST(Brdf2qtCli, WarnsOfResolutionsTooCoarseForTheLobe) {
+  TempDir dir;
+  std::ofstream(dir.file("sharp.json")) << R"({"model": "phong", "ks": 1, "exponent": 10000})";
+  const auto coarse =
+      run_tool("brdf2qt", {"sharp.json", "--wo-res", "3", "--wi-res", "2", "-q"}, dir.path());
+  ASSERT_EQ(coarse.status, 0) << coarse.err;
+  EXPECT_NE(coarse.err.find("brdf2qt: warning: sharp.json: 3 x 3 outgoing directions are coarser "
+                            "than this lobe"),
+            std::string::npos)
+      << coarse.err;
+  EXPECT_NE(coarse.err.find("texel averages may miss it; use at least 8 x 8"), std::string::npos)
+      << coarse.err;
+  EXPECT_EQ(QtFile::load(dir.file("sharp.qt")).brdf_table().wo_resolution, 3);
+  std::ofstream(dir.file("phong.json")) << R"({"model": "phong", "kd": 0.5, "ks": 0.4,
+                                                "exponent": 100, "table": {"wi_res": 16}})";
+  const auto fine = run_tool("brdf2qt", {"phong.json", "-q"}, dir.path());
+  ASSERT_EQ(fine.status, 0) << fine.err;
+  EXPECT_EQ(fine.err, "");
+}
+
 TEST(Brdf2qtCli, BadSpecsAreOneLineExitOneAndNoOutput) {
   TempDir dir;
   std::ofstream(dir.file("negative.json"))

@@ -90,6 +90,43 @@ int default_wo_resolution(const Brdf& brdf) {
   return std::clamp(rounded, 32, 128) + 1;
 }
 
+std::vector<std::string> table_resolution_warnings(const Brdf& brdf,
+                                                   const BrdfTableOptions& options) {
+  std::vector<std::string> warnings;
+  // Options tabulate_brdf refuses get its error instead.
+  if (!is_valid_resolution(options.wi_resolution) || options.wo_resolution < 2) return warnings;
+  const double width = lobe_width(brdf);
+  if (!std::isfinite(width)) return warnings;
+  char text[320];
+  const int needed = default_wo_resolution(brdf);
+  if (options.wo_resolution < needed) {
+    std::snprintf(text, sizeof text,
+                  "%d x %d outgoing directions are coarser than this lobe (%.2f degrees wide) "
+                  "needs, %d x %d: lookups between entries may err by several percent",
+                  options.wo_resolution, options.wo_resolution, width * 180 / std::numbers::pi,
+                  needed, needed);
+    warnings.push_back(text);
+  }
+  // The quadrature's finest step at the normal, in radians, at n texels per side.
+  const auto finest_step = [&](int n) {
+    return 2.0 / (double(n) * double(1 << options.supersampling.max_depth));
+  };
+  const double step = finest_step(options.wi_resolution);
+  if (step > width / 2) {
+    int enough = options.wi_resolution;
+    while (enough < 512 && finest_step(enough) > width / 2)
+      enough *= 2;
+    std::snprintf(text, sizeof text,
+                  "the lobe (%.3f degrees wide) is narrower than twice the quadrature's finest "
+                  "step at %d x %d texels (%.3f degrees): texel averages may miss it; use at "
+                  "least %d x %d",
+                  width * 180 / std::numbers::pi, options.wi_resolution, options.wi_resolution,
+                  step * 180 / std::numbers::pi, enough, enough);
+    warnings.push_back(text);
+  }
+  return warnings;
+}
+
 Grid tabulate_table_entry(const Brdf& brdf, int i, int j, const BrdfTableOptions& options) {
   const int m = options.wo_resolution;
   const double step = 2.0 / (m - 1), d = options.wo_derivative_step;

@@ -92,6 +92,44 @@ TEST_P(TableAlbedo, MatchesNumericIntegration) {
   std::printf("[  ALBEDO  ] %s: largest relative error %.4f\n", m.name.c_str(), worst);
 }
 
+// What table_resolution_warnings says of coarse options, and that it is so: a Phong 10^4 lobe
+// tabulated at the normal over 2 x 2 texels is lost (its directional albedo is 1 by the
+// normalisation, here under half of it), over 128 x 128 it is not; an outgoing grid coarser
+// than the lobe needs is named; Lambert, and the defaults, draw no warning.
+TEST(TableResolution, WarnsWhereTexelsMissTheLobeOrEntriesAreTooFarApart) {
+  const Brdf sharp = Phong{{0, 0, 0}, {1, 1, 1}, 1e4};
+  BrdfTableOptions options;
+  options.wo_resolution = default_wo_resolution(sharp);
+  for (const int n : {2, 128}) {
+    options.wi_resolution = n;
+    const Grid entry = tabulate_entry(sharp, Vec3::UnitZ(), options);
+    // f cos integrated over the hemisphere: pi times f's mean over the cosine-weighted square.
+    const double albedo = std::numbers::pi * entry.mean(0, 0);
+    const auto warnings = table_resolution_warnings(sharp, options);
+    if (n == 2) {
+      EXPECT_LT(albedo, 0.5);
+      ASSERT_EQ(warnings.size(), 1u);
+      EXPECT_NE(warnings[0].find("texel averages may miss it"), std::string::npos) << warnings[0];
+    } else {
+      EXPECT_NEAR(albedo, 1, 0.01);
+      EXPECT_TRUE(warnings.empty()) << warnings.front();
+    }
+  }
+  const Brdf broad = Phong{{0, 0, 0}, {1, 1, 1}, 1};
+  options.wi_resolution = 32;
+  options.wo_resolution = 4;
+  const auto coarse = table_resolution_warnings(broad, options);
+  ASSERT_EQ(coarse.size(), 1u);
+  EXPECT_NE(coarse[0].find("coarser than this lobe"), std::string::npos) << coarse[0];
+  options.wo_resolution = default_wo_resolution(broad);
+  EXPECT_TRUE(table_resolution_warnings(broad, options).empty());
+  options.wo_resolution = 2;
+  EXPECT_TRUE(table_resolution_warnings(Lambert{}, options).empty());
+  options.wo_resolution = 129;
+  options.wi_resolution = 128;
+  EXPECT_TRUE(table_resolution_warnings(sharp, options).empty());
+}
+
 // Lookups at one wo with the entries folded (entries_at) give the entries' own lookups under a
 // light with a bright spot and edges: the same value up to the folded sum's halves, and a bound
 // at most theirs up to the folded codes' rounding up. Folded only where more than one entry, or
