@@ -402,3 +402,6 @@ def test_grids_beyond_floats_and_specs_with_a_nul_are_refused():
         basis.project(np.ones((8, 8)) * 1e300)
     with pytest.raises(ValueError, match="NUL"):
         basis.Brdf.from_json('{"model": "lambert", "albedo": 0.5}\0garbage')
+    # A constant light whose texels overflow once averaged: the argument, as OverflowError.
+    with pytest.raises(OverflowError, match="constant radiance.*too large for captures"):
+        basis.capture(np.zeros((1, 3)), np.array([[0, 0, 1.0]]), constant=(1e38,) * 3)

@@ -118,7 +118,8 @@ struct CaptureTimings {
 
 // Captures every point in parallel and projects each capture into a tree. Deterministic for a
 // seed and first index whatever the thread count; reports progress per point and stops (Cancelled)
-// when asked. Radiance that overflows float texels is a FileError naming the environment.
+// when asked. Radiance that overflows float texels is a std::overflow_error naming the
+// environment (its file, or the constant).
 CaptureSet capture_set(const Environment& environment, const RayScene* scene,
                        std::span<const SurfacePoint> points, const CaptureSetOptions& options,
                        const TaskControl& control = {}, CaptureTimings* timings = nullptr);
