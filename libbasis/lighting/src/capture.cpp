@@ -276,8 +276,8 @@ CaptureSet capture_set(const Environment& environment, const RayScene* scene,
         c = capture(environment, scene, points[i].position, frames[i], options.capture,
                     options.first_index + i);
       } catch (const std::overflow_error& e) {
-        throw std::overflow_error(environment.name() + ": radiance too large for captures: " +
-                                  e.what());
+        throw std::overflow_error(environment.name() +
+                                  ": radiance too large for captures: " + e.what());
       }
       lights[i] = std::move(c.lights);
       const auto t1 = std::chrono::steady_clock::now();
@@ -290,8 +290,8 @@ CaptureSet capture_set(const Environment& environment, const RayScene* scene,
       try {
         projector.project(c.texels, projection, tree);
       } catch (const std::overflow_error& e) {
-        throw std::overflow_error(environment.name() + ": radiance too large for captures: " +
-                                  e.what());
+        throw std::overflow_error(environment.name() +
+                                  ": radiance too large for captures: " + e.what());
       }
       trees[i] = pack_exact_texels(tree, options.bounds);
       const auto t2 = std::chrono::steady_clock::now();
