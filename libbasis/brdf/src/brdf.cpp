@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <stdexcept>
 
 #include "basis/brdf/measured.h"
 #include "basis/core/hemisphere.h"
@@ -72,6 +73,7 @@ struct Evaluator {
   }
 
   Color operator()(const std::shared_ptr<const MeasuredBrdf>& m) const {
+    if (!m) throw std::invalid_argument("a measured BRDF without data (null)");
     return m->evaluate(wi, wo);
   }
 };

@@ -13,6 +13,14 @@
 
 namespace basis {
 
+bool folding_available() {
+#if defined(__SSE4_1__) && defined(__F16C__)
+  return true;
+#else
+  return false;
+#endif
+}
+
 namespace {
 
 void check_terms(std::span<const WeightedTerm> terms) {

@@ -82,6 +82,12 @@ RTCRay embree_ray(const Ray& r, unsigned id) {
 
 constexpr std::size_t kBatch = 256;
 
+void check_room(std::size_t rays, std::size_t hits) {
+  if (hits < rays)
+    throw std::invalid_argument("tracing " + std::to_string(rays) + " rays into room for " +
+                                std::to_string(hits) + " hits");
+}
+
 // Flush-to-zero and denormals-are-zero, as Embree asks for while it traces, in this thread until
 // the scope ends; then the caller's two modes again (a program's own arithmetic, NumPy's from
 // Python, keeps its subnormals).
@@ -123,6 +129,7 @@ void intersect_batches(RTCScene scene, std::span<const Ray> rays, Found&& found)
 }  // namespace
 
 void EmbreeScene::trace(std::span<const Ray> rays, std::span<RayHit> hits) const {
+  check_room(rays.size(), hits.size());
   if (state_->emitters) return trace_nearest(rays, hits);
   const FlushDenormalsWhileTracing mode;
   RTCIntersectContext context;
@@ -139,6 +146,7 @@ void EmbreeScene::trace(std::span<const Ray> rays, std::span<RayHit> hits) const
 }
 
 void EmbreeScene::trace_nearest(std::span<const Ray> rays, std::span<RayHit> hits) const {
+  check_room(rays.size(), hits.size());
   intersect_batches(state_->scene, rays, [&](std::size_t i, const RTCRayHit& q) {
     const bool hit = q.hit.geomID != RTC_INVALID_GEOMETRY_ID;
     hits[i] = {hit, hit ? state_->emission[q.hit.primID] : Color{0, 0, 0},
@@ -147,6 +155,7 @@ void EmbreeScene::trace_nearest(std::span<const Ray> rays, std::span<RayHit> hit
 }
 
 void EmbreeScene::intersect(std::span<const Ray> rays, std::span<RayIntersection> hits) const {
+  check_room(rays.size(), hits.size());
   intersect_batches(state_->scene, rays, [&](std::size_t i, const RTCRayHit& q) {
     if (q.hit.geomID == RTC_INVALID_GEOMETRY_ID) {
       hits[i] = {};

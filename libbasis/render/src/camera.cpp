@@ -32,10 +32,10 @@ std::string camera_problem(const Camera& camera) {
     return "fov must be between 0 and 180 degrees";
   if (camera.width < 1 || camera.height < 1) return "width and height must be at least 1";
   if (camera.width > kMaxImageSide || camera.height > kMaxImageSide ||
-      (long long)camera.width * camera.height > kMaxImagePixelCount)
+      (long long)camera.width * camera.height > kMaxRenderPixels)
     return "image of " + std::to_string(camera.width) + " x " + std::to_string(camera.height) +
            " pixels is larger than the limit (" + std::to_string(kMaxImageSide) + " a side, " +
-           std::to_string(kMaxImagePixelCount) + " pixels)";
+           std::to_string(kMaxRenderPixels) + " pixels)";
   return {};
 }
 

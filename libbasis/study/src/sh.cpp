@@ -5,6 +5,7 @@
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
+#include <string>
 
 #include "basis/core/gauss_legendre.h"
 #include "basis/core/hemisphere.h"
@@ -73,6 +74,9 @@ std::vector<double> sh_project(const Grid& grid, int order, bool times_cosine) {
 Color sh_dot(std::span<const double> a, int channels_a, std::span<const double> b, int channels_b,
              int order) {
   const int count = sh_count(order);
+  if (a.size() < std::size_t(channels_a) * count || b.size() < std::size_t(channels_b) * count)
+    throw std::invalid_argument("spherical harmonics of order " + std::to_string(order) +
+                                " need channels x " + std::to_string(count) + " coefficients");
   Color out{};
   for (int c = 0; c < 3; ++c) {
     const double* pa = a.data() + std::size_t(channels_a == 1 ? 0 : c) * count;

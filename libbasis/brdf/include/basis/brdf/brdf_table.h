@@ -150,8 +150,9 @@ Grid tabulate_tilt(const Brdf& brdf, const Vec3& wo, const BrdfTableOptions& opt
 std::vector<SquareSymmetry> brdf_symmetries(const Brdf& brdf);
 
 // Tabulates every entry in parallel (deterministic whatever the thread count) and projects it.
-// Reports progress per entry; throws Cancelled when the control asks, and std::overflow_error
-// naming wo when the BRDF's values (or their derivatives) there are not finite floats.
+// Reports progress per entry; throws Cancelled when the control asks, std::overflow_error
+// naming wo when the BRDF's values (or their derivatives) there are not finite floats, and
+// std::invalid_argument for resolutions out of range (wo 2..256, wi a power of two 2..512).
 BrdfTable tabulate_brdf(const Brdf& brdf, const BrdfTableOptions& options,
                         const TaskControl& control = {});
 

@@ -34,10 +34,13 @@ class RglBrdf : public MeasuredBrdf {
   std::string description() const;
 
   struct Sample {
-    Vec3 wo;       // sampled direction (zero when !valid)
-    Color weight;  // f(wi, wo) cos(theta_o) / pdf; zero when !valid
-    double pdf;    // solid-angle density of wo; zero when !valid
-    bool valid;    // false for wi below the horizon or a sample that left the hemisphere
+    Vec3 wo;  // sampled direction (zero when !valid)
+    // evaluate_parametrised(wi, wo) cos(theta_o) / pdf, wi being the parameter direction (so
+    // evaluate(wo, wi) in evaluate's order, whose second argument is the parameter); zero when
+    // !valid.
+    Color weight;
+    double pdf;  // solid-angle density of wo; zero when !valid
+    bool valid;  // false for wi below the horizon or a sample that left the hemisphere
   };
   // Draws the free direction (Sample::wo) for the parameter direction wi from the file's
   // luminance and visible-normal warps, for (u1, u2) in [0, 1)^2.

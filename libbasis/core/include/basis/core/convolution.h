@@ -52,8 +52,9 @@ GroupConvolution convolve_groups(const QuadtreeView& a, const QuadtreeView& b);
 // Portable scalar implementation of convolve_groups, the reference for its SIMD path.
 GroupConvolution convolve_groups_scalar(const QuadtreeView& a, const QuadtreeView& b);
 
-// Integral over [0,1]^2 of the product of several trees (group 0; at least one). The descent
-// stops on a quadrant as soon as all factors but one are leaves there.
+// Integral over [0,1]^2 of the product of several trees (group 0; 1 to 8 of them, else
+// std::invalid_argument). The descent stops on a quadrant as soon as all factors but one are
+// leaves there.
 Rgb convolve_product(std::span<const QuadtreeView> factors);
 
 // ---------------------------------------------------------------- packed trees

@@ -38,15 +38,9 @@ struct FoldedTree {
   float floor_weight = 1;
 };
 
-// Whether this build convolves folded trees (it needs SSE4.1 and F16C); convolve() below throws
-// std::logic_error where it does not.
-constexpr bool folding_available() {
-#if defined(__SSE4_1__) && defined(__F16C__)
-  return true;
-#else
-  return false;
-#endif
-}
+// Whether the library was built to convolve folded trees (it needs SSE4.1 and F16C), whatever
+// the flags of the program that calls it; convolve() below throws std::logic_error where not.
+bool folding_available();
 
 // Folds 1 to kMaxFoldedTerms terms of equal resolution, l2 bounds on every weighted group and
 // no exact texels (table entries); std::invalid_argument otherwise, or for non-finite weights;

@@ -8,6 +8,8 @@
 #include <span>
 #include <string>
 
+#include "basis/core/file_error.h"
+
 namespace basis {
 
 // The XXH3-128 of `bytes`, 32 lowercase hex digits (most significant first, as xxh128sum).

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "basis/core/color.h"
+#include "basis/core/file_error.h"
 
 namespace basis {
 

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "basis/core/file_error.h"
 #include "basis/core/vector.h"
 
 namespace basis {

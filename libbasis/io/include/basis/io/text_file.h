@@ -4,6 +4,8 @@
 #include <cstddef>
 #include <string>
 
+#include "basis/core/file_error.h"
+
 namespace basis {
 
 // The whole of `path`: a regular file, or a pipe (/dev/stdin, a FIFO) read to its end. A FIFO

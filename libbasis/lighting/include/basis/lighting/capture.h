@@ -33,8 +33,10 @@ struct CaptureOptions {
   // Take the subsamples from the environment's box-filtered pyramid at the scale each stands
   // for (Environment::smooth_radiance(w, pixels)), so that few of them average many pixels.
   bool prefiltered = false;
-  std::uint64_t seed = 1;    // jitter; results depend on it and the point index only
-  double ray_offset = 1e-4;  // origins move this far along the normal (scaled by the scene)
+  std::uint64_t seed = 1;  // jitter; results depend on it and the point index only
+  // Origins move this far along the normal, in world units, as given: callers scale it to their
+  // scene (the tools and Python take 1e-4 times the scene's extent, at least 1e-4).
+  double ray_offset = 1e-4;
   // Where the environment's compact lights (a sun) go: into the texels they fall in, like any
   // bright pixel, or apart, as one DirectionalLight per light seen.
   enum class CompactLights { splatted, apart };

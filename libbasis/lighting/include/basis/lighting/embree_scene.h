@@ -17,8 +17,10 @@ class EmbreeScene : public RayScene {
   EmbreeScene(const EmbreeScene&) = delete;
   EmbreeScene& operator=(const EmbreeScene&) = delete;
 
-  // Rays start at their origin (tnear 0) and run to infinity. Thread-safe. Sets flush-to-zero
-  // and denormals-are-zero on the calling thread, as Embree expects.
+  // Rays start at their origin (tnear 0) and run to infinity. Thread-safe. Flush-to-zero and
+  // denormals-are-zero are on while a call traces, as Embree expects, and the calling thread's
+  // own modes are restored when it returns. `hits` must hold at least as many entries as `rays`
+  // (std::invalid_argument otherwise).
   void trace(std::span<const Ray> rays, std::span<RayHit> hits) const override;
   void trace_nearest(std::span<const Ray> rays, std::span<RayHit> hits) const override;
   void intersect(std::span<const Ray> rays, std::span<RayIntersection> hits) const override;

@@ -18,7 +18,8 @@ struct Ray {
 
 // What a ray meets: nothing (it escapes to the environment) or a surface, whose emitted
 // radiance is `emission` (black for surfaces that only occlude), at `distance` along the ray
-// (filled by trace_nearest only; infinity otherwise).
+// (filled by trace_nearest, and by trace in scenes with emitters, where it traces the nearest
+// hit; otherwise infinity).
 struct RayHit {
   bool hit = false;
   Color emission{0, 0, 0};
@@ -35,7 +36,7 @@ struct RayIntersection {
 };
 
 // Geometry that rays are traced against. Implementations must be callable from several
-// threads at once.
+// threads at once. Each call fills hits[i] for rays[i]; `hits` holds at least as many entries.
 class RayScene {
  public:
   virtual ~RayScene() = default;

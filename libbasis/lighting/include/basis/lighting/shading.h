@@ -38,7 +38,8 @@ struct ShadingOptions {
 Rgb reflect_lights(std::span<const DirectionalLight> lights, const Frame& record,
                    const Frame& shading, const Vec3& wo, const Brdf& brdf);
 
-// The tilt of a surface of normal `normal` (world) against capture k's frame.
+// The tilt of a surface of normal `normal` (world) against capture k's frame;
+// std::invalid_argument when `normal` is 90 degrees or more from the capture's normal.
 Tilt capture_tilt(const CaptureSetView& captures, std::size_t k, const Vec3& normal);
 
 // The tilt up to which lookups at another normal are supported: compensated, within about 2 %
@@ -50,9 +51,12 @@ double largest_tilt_degrees(const CaptureSetView& captures, const Vec3& normal);
 
 // Reflected radiance (pi included) at capture k, with the certified bound of the lookup: the
 // table convolved with the capture's tree, plus f(wi, wo) E wi.z for each of its directional
-// lights. With --normal the lights turn with the surface exactly (no compensation needed;
-// lights below the tilted horizon drop out), except in TiltCompensation::none. A light's bound
-// is 0 with light_brdf, else the entries' leaves' largest-deviation bounds at its texel.
+// lights. With options.normal the lights turn with the surface exactly (no compensation
+// needed; lights below the tilted horizon drop out), except in TiltCompensation::none. A
+// light's bound is 0 with light_brdf, else the entries' leaves' largest-deviation bounds at its
+// texel. Throws std::invalid_argument for a wo below the horizon, zero or not finite, a normal
+// tilted 90 degrees or more from the capture's, or a tilt on a table without tilt derivatives;
+// std::overflow_error for a result beyond the floats (certified_float).
 Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, std::size_t k,
                   const ShadingOptions& options);
 // The same, untilted (std::invalid_argument with options.normal), with the entries around wo

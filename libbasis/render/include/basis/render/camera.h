@@ -1,6 +1,8 @@
 // Pinhole cameras: the primary ray through any point of the image plane.
 #pragma once
 
+#include <string>
+
 #include "basis/lighting/ray_scene.h"
 
 namespace basis {
@@ -22,7 +24,8 @@ struct Camera {
 
 // Largest image accepted, per side and in pixels.
 inline constexpr int kMaxImageSide = 16384;
-inline constexpr long long kMaxImagePixelCount = 1LL << 26;
+// (kMaxImagePixels, image_file.h, is what an image file may hold.)
+inline constexpr long long kMaxRenderPixels = 1LL << 26;
 
 // Why a camera cannot render (eye at look_at, up along the view, a field of view outside
 // (0, 180) degrees, a size of 0 or beyond the limits, a value not finite), or empty when it can.

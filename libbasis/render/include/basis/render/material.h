@@ -4,6 +4,7 @@
 
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 
 #include "basis/brdf/brdf.h"
@@ -18,7 +19,11 @@ struct Material {
   Brdf brdf;
   std::shared_ptr<const QtFile> table;  // null unless loaded with tables
 
-  BrdfTableView table_view() const { return table->brdf_table(); }
+  // The table's view; std::logic_error for a material loaded without tables.
+  BrdfTableView table_view() const {
+    if (!table) throw std::logic_error(path + ": the material was loaded without its table");
+    return table->brdf_table();
+  }
 };
 
 // The file a spec's table is cached in: SPEC_FOLDER/SPEC_STEM.table.qt.

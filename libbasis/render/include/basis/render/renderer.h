@@ -53,7 +53,8 @@ struct RenderResult {
 // Renders the scene's camera view. The image is the same for any thread count; Monte Carlo
 // with a time budget renders passes of whole samples per pixel until the next would not fit.
 // Reports progress and stops (Cancelled) through `control`. Radiance that overflows the
-// records' floats or the pixels' is a FileError naming the scene file and its light.
+// records' floats or the pixels' is a FileError naming the scene file and its light; options
+// out of range are std::invalid_argument, and a render holding NaN pixels std::runtime_error.
 RenderResult render(const RenderScene& scene, const RenderOptions& options,
                     const TaskControl& control = {});
 

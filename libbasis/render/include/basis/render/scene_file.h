@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "basis/core/color.h"
+#include "basis/core/file_error.h"
 #include "basis/render/camera.h"
 
 namespace basis {

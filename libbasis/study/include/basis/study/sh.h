@@ -35,7 +35,8 @@ void sh_evaluate(int order, const Vec3& w, std::span<double> out);
 // of f L cos over the hemisphere.
 std::vector<double> sh_project(const Grid& grid, int order, bool times_cosine);
 
-// Dot product of two coefficient vectors of `channels` channels (a grey side broadcasts).
+// Dot product of two coefficient vectors of `channels` channels (a grey side broadcasts);
+// std::invalid_argument when a vector is shorter than its channels times order^2.
 Color sh_dot(std::span<const double> a, int channels_a, std::span<const double> b, int channels_b,
              int order);
 

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "basis/brdf/brdf.h"
+#include "basis/core/file_error.h"
 #include "basis/core/task.h"
 #include "basis/lighting/environment.h"
 #include "basis/lighting/mesh.h"

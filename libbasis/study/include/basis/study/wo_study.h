@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "basis/brdf/brdf.h"
+#include "basis/core/file_error.h"
 #include "basis/core/task.h"
 #include "basis/core/vector.h"
 #include "basis/io/image.h"
