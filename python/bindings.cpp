@@ -775,7 +775,7 @@ PYBIND11_MODULE(basis, m) {
         recipe.options = {.resolution = res,
                           .strata = strata,
                           .seed = seed,
-                          .ray_offset = 1e-4 * std::max(1.0, mesh ? mesh->extent() : 1.0),
+                          .ray_offset = mesh ? mesh->ray_offset() : 1e-4,
                           .compact_lights = splat_lights ? CaptureOptions::CompactLights::splatted
                                                          : CaptureOptions::CompactLights::apart};
         const Environment environment = env.empty() ? Environment::constant(recipe.constant)

@@ -299,7 +299,7 @@ int main(int argc, char** argv) {
     recipe.options = {.resolution = res,
                       .strata = strata,
                       .seed = seed,
-                      .ray_offset = 1e-4 * std::max(1.0, mesh ? mesh->extent() : 1.0),
+                      .ray_offset = mesh ? mesh->ray_offset() : 1e-4,
                       .compact_lights = splat ? basis::CaptureOptions::CompactLights::splatted
                                               : basis::CaptureOptions::CompactLights::apart};
     basis::CaptureSetOptions options;

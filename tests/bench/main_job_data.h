@@ -41,7 +41,7 @@ inline const QtFile& main_job_file(const std::string& name) {
       recipe.options = {.resolution = 128,
                         .strata = 2,
                         .seed = 1,
-                        .ray_offset = 1e-4 * std::max(1.0, mesh.extent()),
+                        .ray_offset = mesh.ray_offset(),
                         .compact_lights = CaptureOptions::CompactLights::apart};
       if (name == "captures_texels") recipe.projection.tolerance = 0;
       CaptureSetOptions options;

@@ -217,7 +217,7 @@ Capture capture(const Environment& environment, const RayScene* scene, const Vec
     throw std::invalid_argument("capture resolution must be a power of two from 2 to 512");
   if (k < 1 || k > 64) throw std::invalid_argument("strata per axis must be 1..64");
   Capture out{Grid(n, 3), {}, {}};
-  const Vec3 origin = position + frame.normal * options.ray_offset;
+  const Vec3 origin = ray_origin_above(position, frame.normal, options.ray_offset);
   trace_strata(environment, scene, origin, frame, options,
                splitmix64(options.seed ^ splitmix64(index)), out.texels, out.stats);
 

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <limits>
 #include <numbers>
+#include <numeric>
 #include <stdexcept>
 #include <string>
 
@@ -136,6 +137,22 @@ void Environment::find_compact_lights(double level, std::span<const double> pixe
       bright_[i].light = int(lights_.size());
     lights_.push_back(light);
   }
+  // The most luminous first, and the pixels' light indices after them.
+  std::vector<int> order(lights_.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return luminance(lights_[std::size_t(a)].energy) > luminance(lights_[std::size_t(b)].energy);
+  });
+  std::vector<int> rank(lights_.size());
+  std::vector<CompactLight> sorted;
+  sorted.reserve(lights_.size());
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    rank[std::size_t(order[k])] = int(k);
+    sorted.push_back(lights_[std::size_t(order[k])]);
+  }
+  lights_ = std::move(sorted);
+  for (BrightPixel& b : bright_)
+    if (b.light >= 0) b.light = rank[std::size_t(b.light)];
 }
 
 const Environment::CompactLight* Environment::brightest_light() const {

@@ -58,6 +58,11 @@ bool TriangleMesh::has_emitters() const {
                      [](const Color& c) { return c[0] > 0 || c[1] > 0 || c[2] > 0; });
 }
 
+double TriangleMesh::ray_offset() const {
+  const double size = extent();
+  return size > 0 ? 1e-4 * size : 1e-4;
+}
+
 double TriangleMesh::extent() const {
   if (vertices.empty()) return 0;
   Vec3 lo = Vec3::Constant(INFINITY), hi = Vec3::Constant(-INFINITY);
@@ -104,14 +109,17 @@ void TriangleMesh::append(const TriangleMesh& other) {
     const std::array<float, 3> c{float(n.x()), float(n.y()), float(n.z())};
     return std::array<std::array<float, 3>, 3>{c, c, c};
   };
-  if (corner_normals.empty() && !other.corner_normals.empty())
+  // Decided before anything is added: an empty mesh has no corner normals yet, and the first
+  // mesh appended to it must keep its own.
+  const bool per_corner = !corner_normals.empty() || !other.corner_normals.empty();
+  if (per_corner && corner_normals.empty())
     for (std::size_t t = 0; t < triangles.size(); ++t)
       corner_normals.push_back(face_corners(*this, t));
   vertices.insert(vertices.end(), other.vertices.begin(), other.vertices.end());
   for (std::size_t t = 0; t < other.triangles.size(); ++t) {
     const auto& f = other.triangles[t];
     triangles.push_back({f[0] + offset, f[1] + offset, f[2] + offset});
-    if (!corner_normals.empty())
+    if (per_corner)
       corner_normals.push_back(other.corner_normals.empty() ? face_corners(other, t)
                                                             : other.corner_normals[t]);
   }

@@ -4,6 +4,7 @@
 
 #include "basis/brdf/brdf_sampling.h"
 #include "basis/core/random.h"
+#include "basis/lighting/ray_scene.h"
 
 namespace basis {
 
@@ -12,7 +13,7 @@ Color direct_lighting_sum(const RenderScene& scene, const ShadingPoint& point, s
   const Frame frame = point.frame();
   const Vec3 wo = point.local_wo();
   const Brdf& brdf = scene.materials[point.material].brdf;
-  const Vec3 origin = point.position + point.geometric_normal * scene.ray_offset;
+  const Vec3 origin = ray_origin_above(point.position, point.geometric_normal, scene.ray_offset);
   std::vector<Ray> rays;
   std::vector<Color> weights;  // f L cos / pdf x MIS weight, before visibility
   rays.reserve(2 * std::size_t(count));

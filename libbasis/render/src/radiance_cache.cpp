@@ -12,6 +12,7 @@
 
 #include "basis/core/file_error.h"
 #include "basis/core/projection.h"
+#include "basis/lighting/ray_scene.h"
 #include "basis/lighting/shading.h"
 
 namespace basis {
@@ -22,7 +23,7 @@ std::uint64_t light_mask(const RenderScene& scene, const Vec3& position, const V
   const std::size_t count = std::min<std::size_t>(64, lights.size());
   std::vector<Ray> rays;
   std::vector<std::size_t> which;
-  const Vec3 origin = position + geometric_normal * scene.ray_offset;
+  const Vec3 origin = ray_origin_above(position, geometric_normal, scene.ray_offset);
   for (std::size_t l = 0; l < count; ++l)
     if (lights[l].direction.dot(normal) > 0 && lights[l].direction.dot(geometric_normal) > 0) {
       rays.push_back({origin, lights[l].direction});

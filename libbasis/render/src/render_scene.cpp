@@ -66,7 +66,7 @@ RenderScene load_render_scene(const SceneFile& file, const SceneLoadOptions& opt
     scene.mesh.append(mesh);
   }
   scene.rays = std::make_unique<EmbreeScene>(scene.mesh);
-  scene.ray_offset = 1e-4 * std::max(1.0, scene.mesh.extent());
+  scene.ray_offset = scene.mesh.ray_offset();
   return scene;
 }
 

@@ -314,6 +314,24 @@ TEST(TriangleMesh, VertexNormalsAreInterpolatedAcrossTriangles) {
   const TriangleMesh flat = read_obj(dir.file("flat.obj"));
   EXPECT_TRUE(flat.corner_normals.empty());
   EXPECT_LT((flat.shading_normal(0, 0.2, 0.2) - Vec3(0, 0, 1)).norm(), 1e-12);
+  // Scenes are built by appending meshes to an empty one: the first keeps its normals (they
+  // were dropped, and a scene of one smooth mesh rendered flat), a flat one after it gets its
+  // face normals per corner, and a smooth one after a flat one turns the flat one's into them.
+  TriangleMesh scene;
+  scene.append(mesh);
+  ASSERT_EQ(scene.corner_normals.size(), 1u);
+  EXPECT_LT((scene.shading_normal(0, 1, 0) - Vec3(1, 0, 1).normalized()).norm(), 1e-6);
+  scene.append(flat);
+  ASSERT_EQ(scene.corner_normals.size(), 2u);
+  EXPECT_LT((scene.shading_normal(1, 0.2, 0.2) - Vec3(0, 0, 1)).norm(), 1e-6);
+  EXPECT_LT((scene.shading_normal(0, 1, 0) - Vec3(1, 0, 1).normalized()).norm(), 1e-6);
+  TriangleMesh flat_first;
+  flat_first.append(flat);
+  EXPECT_TRUE(flat_first.corner_normals.empty());
+  flat_first.append(mesh);
+  ASSERT_EQ(flat_first.corner_normals.size(), 2u);
+  EXPECT_LT((flat_first.shading_normal(0, 0.2, 0.2) - Vec3(0, 0, 1)).norm(), 1e-6);
+  EXPECT_LT((flat_first.shading_normal(1, 1, 0) - Vec3(1, 0, 1).normalized()).norm(), 1e-6);
 }
 
 // The message of the FileError a scene text raises.

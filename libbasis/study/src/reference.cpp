@@ -2,12 +2,14 @@
 
 #include <vector>
 
+#include "basis/lighting/ray_scene.h"
+
 namespace basis {
 
 Color reference_reflection(const Environment& environment, const RayScene* scene,
                            const Vec3& position, const Frame& frame, const Brdf& brdf,
                            const Vec3& wo, int s, double ray_offset) {
-  const Vec3 origin = position + frame.normal * ray_offset;
+  const Vec3 origin = ray_origin_above(position, frame.normal, ray_offset);
   Color sum{0, 0, 0};
   std::vector<Ray> rays;
   std::vector<RayHit> hits;

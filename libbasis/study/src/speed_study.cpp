@@ -90,7 +90,7 @@ std::vector<ComparisonCase> speed_study_cases(const Environment& environment,
     for (const SurfacePoint& p : sample_surface(mesh, std::size_t(options.scene_points), 7))
       lights.push_back({"scene",
                         scene.get(),
-                        p.position + p.normal * (1e-4 * mesh.extent()),
+                        ray_origin_above(p.position, p.normal, mesh.ray_offset()),
                         Frame::from_normal(p.normal),
                         {}});
   }

@@ -80,6 +80,8 @@ class Environment {
                      // a pixel's diagonal at the equator
     Color energy;    // integral of the excess radiance over its pixels' solid angle
   };
+  // The compact lights, the most luminous energy first (ties in the map's row-major order), so
+  // that a consumer that takes the first few takes the brightest.
   std::span<const CompactLight> lights() const { return lights_; }
   // The compact light of the most luminous energy (the sun), null when there is none.
   const CompactLight* brightest_light() const;

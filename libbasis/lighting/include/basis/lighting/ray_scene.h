@@ -11,6 +11,12 @@
 
 namespace basis {
 
+// The origin of rays leaving a surface at `position`: moved along `normal` (unit) by `offset`
+// (world units), and by at least 2^-19 of the position's largest coordinate (16 steps of a
+// float there), so that a scene far from the origin does not meet its own surface through the
+// single-precision coordinates it is traced in.
+Vec3 ray_origin_above(const Vec3& position, const Vec3& normal, double offset);
+
 struct Ray {
   Vec3 origin;
   Vec3 direction;  // unit

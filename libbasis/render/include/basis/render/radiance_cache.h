@@ -41,7 +41,8 @@ struct CacheOptions {
   std::uint64_t seed = 1;
 };
 
-// Which of the environment's compact lights (the first 64) a point sees: bit l is set when
+// Which of the environment's compact lights (the 64 most luminous, Environment::lights' order;
+// dimmer ones beyond them are not told apart) a point sees: bit l is set when
 // light l's centre is above the horizon of `normal` and its shadow ray escapes. Records are
 // used only where the point sees the same lights, so that no record carries a sun across a
 // shadow's edge.
