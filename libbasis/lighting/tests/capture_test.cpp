@@ -236,7 +236,9 @@ TEST(Capture, NeitherTheScaleNorTheDistanceFromTheOriginLetsSurfacesShadeThemsel
       Eigen::AngleAxisd(30 * std::numbers::pi / 180, Vec3(1, 1, 0).normalized()).toRotationMatrix();
   const Vec3 normal = tilt * Vec3::UnitZ();
   const std::pair<double, double> cases[] = {{1e-4, 0}, {1, 0}, {1, 1e5}};  // scale, distance
-  for (const auto& [scale, away] : cases) {
+  for (const auto& scale_and_distance : cases) {
+    // Named apart: clang 14 cannot capture structured bindings in the lambda below.
+    const double scale = scale_and_distance.first, away = scale_and_distance.second;
     const Vec3 centre = Vec3::Constant(away);
     auto place = [&](double px, double py, double pz) -> std::array<float, 3> {
       const Vec3 p = centre + tilt * (Vec3(px, py, pz) * scale);
