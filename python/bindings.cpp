@@ -634,20 +634,23 @@ PYBIND11_MODULE(basis, m) {
         options.projection.local_floor = tolerance_floor;
         options.tilt_derivatives = tilt;
         options.wo_derivatives = wo_derivatives;
-        // As brdf2qt warns: resolutions too coarse for the lobe.
+        BrdfTable table = [&] {
+          py::gil_scoped_release release;
+          tbb::task_arena arena(arena_threads(threads));
+          return arena.execute([&] {
+            try {
+              return tabulate_brdf(b.spec.brdf, options);
+            } catch (const std::overflow_error& e) {
+              if (b.source.empty()) throw;
+              throw std::overflow_error(b.source + ": " + e.what());
+            }
+          });
+        }();
+        // As brdf2qt warns, once the options are known to be valid: resolutions too coarse for
+        // the lobe.
         for (const std::string& warning : table_resolution_warnings(b.spec.brdf, options))
           if (PyErr_WarnEx(PyExc_RuntimeWarning, warning.c_str(), 1) != 0)
             throw py::error_already_set();
-        py::gil_scoped_release release;
-        tbb::task_arena arena(arena_threads(threads));
-        BrdfTable table = arena.execute([&] {
-          try {
-            return tabulate_brdf(b.spec.brdf, options);
-          } catch (const std::overflow_error& e) {
-            if (b.source.empty()) throw;
-            throw std::overflow_error(b.source + ": " + e.what());
-          }
-        });
         table.spec = b.spec.text;
         Table out = own(std::move(table), options.projection);
         out.brdf = b.spec.brdf;

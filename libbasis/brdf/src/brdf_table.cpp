@@ -98,30 +98,36 @@ std::vector<std::string> table_resolution_warnings(const Brdf& brdf,
   const double width = lobe_width(brdf);
   if (!std::isfinite(width)) return warnings;
   char text[320];
-  const int needed = default_wo_resolution(brdf);
+  // The grid steps default_wo_resolution allows (at most 0.73 widths at the normal), without its
+  // floor of 33, which broad lobes do not need.
+  const int needed = std::min(default_wo_resolution(brdf), int(std::ceil(5.5 / width)) + 1);
   if (options.wo_resolution < needed) {
     std::snprintf(text, sizeof text,
                   "%d x %d outgoing directions are coarser than this lobe (%.2f degrees wide) "
-                  "needs, %d x %d: lookups between entries may err by several percent",
+                  "needs, %d x %d: lookups between entries may err by more than 1 %%",
                   options.wo_resolution, options.wo_resolution, width * 180 / std::numbers::pi,
                   needed, needed);
     warnings.push_back(text);
   }
   // The quadrature's finest step at the normal, in radians, at n texels per side.
   const auto finest_step = [&](int n) {
-    return 2.0 / (double(n) * double(1 << options.supersampling.max_depth));
+    return std::ldexp(2.0 / n, -options.supersampling.max_depth);
   };
   const double step = finest_step(options.wi_resolution);
   if (step > width / 2) {
     int enough = options.wi_resolution;
     while (enough < 512 && finest_step(enough) > width / 2)
       enough *= 2;
-    std::snprintf(text, sizeof text,
-                  "the lobe (%.3f degrees wide) is narrower than twice the quadrature's finest "
-                  "step at %d x %d texels (%.3f degrees): texel averages may miss it; use at "
-                  "least %d x %d",
-                  width * 180 / std::numbers::pi, options.wi_resolution, options.wi_resolution,
-                  step * 180 / std::numbers::pi, enough, enough);
+    const bool suffices = finest_step(enough) <= width / 2;
+    std::snprintf(
+        text, sizeof text,
+        "the lobe (%.3f degrees wide) is narrower than twice the quadrature's finest "
+        "step at %d x %d texels (%.3f degrees): texel averages may miss it; %s",
+        width * 180 / std::numbers::pi, options.wi_resolution, options.wi_resolution,
+        step * 180 / std::numbers::pi,
+        suffices
+            ? ("use at least " + std::to_string(enough) + " x " + std::to_string(enough)).c_str()
+            : "even 512 x 512 may");
     warnings.push_back(text);
   }
   return warnings;

@@ -2,6 +2,7 @@
 // name the file, line and field, and a MERL file written here from an analytic BRDF.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <numbers>

@@ -3,9 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <utility>
 #include <vector>
 
 #include "basis/brdf/table_lookup.h"
@@ -268,6 +270,17 @@ TEST(Capture, NeitherTheScaleNorTheDistanceFromTheOriginLetsSurfacesShadeThemsel
                  : vertex(0) + t * (vertex(3) - vertex(0)) + s * (vertex(2) - vertex(3));
       const double lift =
           (ray_origin_above(point, normal, mesh.ray_offset()) - point).dot(normal) / scale;
+      // The lift as documented, from the vertices' box and the point's coordinates: 1e-4 of the
+      // box's diagonal, or 2^-19 of the largest coordinate where that is more.
+      Vec3 box_lo = Vec3::Constant(INFINITY), box_hi = Vec3::Constant(-INFINITY);
+      for (int k = 0; k < 8; ++k) {
+        box_lo = box_lo.cwiseMin(vertex(k));
+        box_hi = box_hi.cwiseMax(vertex(k));
+      }
+      const double documented =
+          std::max(1e-4 * (box_hi - box_lo).norm(), std::ldexp(point.cwiseAbs().maxCoeff(), -19));
+      EXPECT_NEAR(lift * scale, documented, 1e-9 * documented);
+      EXPECT_LT(lift, (away == 0 ? 0.01 : 0.5) * h);
       const double height = h - lift;
       double roof = 0;
       for (const double dx : {a - at.x(), a + at.x()})

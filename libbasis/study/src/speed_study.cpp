@@ -84,18 +84,19 @@ std::vector<ComparisonCase> speed_study_cases(const Environment& environment,
   if (!options.quick) lights.push_back({"sun+occluder", &wall, Vec3::Zero(), frame, {}});
   // The real-scene panel: points sampled on the scene's surfaces, each its own capture.
   std::unique_ptr<EmbreeScene> scene;
+  double scene_offset = 1e-4;  // as capture2qt takes it for the scene
   if (!options.scene.empty() && options.scene_points > 0) {
     const TriangleMesh mesh = read_obj(options.scene);
     scene = std::make_unique<EmbreeScene>(mesh);
+    scene_offset = mesh.ray_offset();
     for (const SurfacePoint& p : sample_surface(mesh, std::size_t(options.scene_points), 7))
-      lights.push_back({"scene",
-                        scene.get(),
-                        ray_origin_above(p.position, p.normal, mesh.ray_offset()),
-                        Frame::from_normal(p.normal),
-                        {}});
+      lights.push_back({"scene", scene.get(), p.position, Frame::from_normal(p.normal), {}});
   }
   for (Light& l : lights)
-    l.grid = capture(environment, l.scene, l.position, l.frame, {.resolution = finest, .strata = 2})
+    l.grid = capture(environment, l.scene, l.position, l.frame,
+                     {.resolution = finest,
+                      .strata = 2,
+                      .ray_offset = l.name == "scene" ? scene_offset : 1e-4})
                  .texels;
   // Outgoing directions: where the sun's mirror image lies (the highlight), and oblique; at the
   // scene's points 30 degrees from the normal.

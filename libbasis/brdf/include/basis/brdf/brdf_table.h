@@ -120,10 +120,11 @@ double lobe_width(const Brdf& brdf);
 int default_wo_resolution(const Brdf& brdf);
 
 // What a table of these options may get wrong for this BRDF, one sentence each (empty when
-// nothing): an outgoing grid coarser than default_wo_resolution (lookups between entries err by
-// more than the 1 % it holds, e.g. 8 % for Phong 1 at M = 4); a lobe narrower than twice the
-// finest quadrature step at the normal, 2 / (wi_resolution 2^max_depth) radians, which texel
-// averages can miss (Phong 10^4 at wi_resolution 2 gives 0 where the answer is 1).
+// nothing): an outgoing grid coarser than default_wo_resolution asks for, without its floor of
+// 33 (lookups between entries may err by more than the 1 % it holds: 8 % for Phong 1 at
+// M = 4); a lobe narrower than twice the finest quadrature step at the normal,
+// 2 / (wi_resolution 2^max_depth) radians, which texel averages can miss (Phong 10^4 at
+// wi_resolution 2 gives 0 where the answer is 1).
 std::vector<std::string> table_resolution_warnings(const Brdf& brdf,
                                                    const BrdfTableOptions& options);
 

@@ -34,8 +34,9 @@ struct CaptureOptions {
   // for (Environment::smooth_radiance(w, pixels)), so that few of them average many pixels.
   bool prefiltered = false;
   std::uint64_t seed = 1;  // jitter; results depend on it and the point index only
-  // Origins move this far along the normal, in world units, as given: callers scale it to their
-  // scene (the tools and Python take 1e-4 times the scene's extent, at least 1e-4).
+  // Origins move along the normal by the larger of this (world units) and 2^-19 of the
+  // position's largest coordinate (ray_origin_above). Callers scale it to their scene: the
+  // tools and Python take TriangleMesh::ray_offset, 1e-4 of the scene's extent.
   double ray_offset = 1e-4;
   // Where the environment's compact lights (a sun) go: into the texels they fall in, like any
   // bright pixel, or apart, as one DirectionalLight per light seen.

@@ -31,8 +31,9 @@ struct TriangleMesh {
   // Length of the bounding box's diagonal (0 for an empty mesh).
   double extent() const;
   // How far rays leaving its surfaces start above them (CaptureOptions::ray_offset, world
-  // units): 1e-4 of the extent (1e-4 for an empty mesh); ray_origin_above adds what the
-  // coordinates' precision needs. One outlying triangle far away widens it with the extent.
+  // units): 1e-4 of the extent (1e-4 for an empty mesh); ray_origin_above takes the larger of
+  // it and what the coordinates' precision needs. One outlying triangle far away widens it with
+  // the extent.
   double ray_offset() const;
   // Area and unit normal (counter-clockwise winding faces the normal) of triangle t.
   double area(std::size_t t) const;

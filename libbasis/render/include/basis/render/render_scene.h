@@ -24,7 +24,8 @@ struct RenderScene {
   std::vector<std::uint32_t> material_of;  // per triangle of `mesh`
   std::vector<Material> materials;         // per mesh of the file
   std::unique_ptr<EmbreeScene> rays;
-  // How far rays leave surfaces along their normal: 1e-4 of the mesh's extent (at least 1e-4).
+  // How far rays leave surfaces along their normal: TriangleMesh::ray_offset, 1e-4 of the mesh's
+  // extent, or more where the coordinates' precision needs it (ray_origin_above).
   double ray_offset = 1e-4;
 };
 
