@@ -82,12 +82,20 @@ double lobe_width(const Brdf& brdf) {
   return INFINITY;
 }
 
-int default_wo_resolution(const Brdf& brdf) {
-  const double width = lobe_width(brdf);
+namespace {
+
+// default_wo_resolution for a lobe of this width (radians).
+int wo_resolution_for_width(double width) {
   // Steps of 4 / (M - 1) radians at the normal, at most 0.73 widths: M - 1 >= 5.5 / width.
   const double steps = std::isfinite(width) ? 5.5 / width : 0;
   const int rounded = int(std::ceil(steps / 8)) * 8;
   return std::clamp(rounded, 32, 128) + 1;
+}
+
+}  // namespace
+
+int default_wo_resolution(const Brdf& brdf) {
+  return wo_resolution_for_width(lobe_width(brdf));
 }
 
 std::vector<std::string> table_resolution_warnings(const Brdf& brdf,
@@ -100,7 +108,7 @@ std::vector<std::string> table_resolution_warnings(const Brdf& brdf,
   char text[320];
   // The grid steps default_wo_resolution allows (at most 0.73 widths at the normal), without its
   // floor of 33, which broad lobes do not need.
-  const int needed = std::min(default_wo_resolution(brdf), int(std::ceil(5.5 / width)) + 1);
+  const int needed = std::min(wo_resolution_for_width(width), int(std::ceil(5.5 / width)) + 1);
   if (options.wo_resolution < needed) {
     std::snprintf(text, sizeof text,
                   "%d x %d outgoing directions are coarser than this lobe (%.2f degrees wide) "

@@ -78,25 +78,24 @@ std::vector<ComparisonCase> speed_study_cases(const Environment& environment,
     const RayScene* scene;
     Vec3 position;
     Frame frame;
+    double ray_offset;  // world units, as the tools take it for the scene
     Grid grid;
   };
-  std::vector<Light> lights = {{"sun", nullptr, Vec3::Zero(), frame, {}}};
-  if (!options.quick) lights.push_back({"sun+occluder", &wall, Vec3::Zero(), frame, {}});
+  std::vector<Light> lights = {{"sun", nullptr, Vec3::Zero(), frame, 1e-4, {}}};
+  if (!options.quick) lights.push_back({"sun+occluder", &wall, Vec3::Zero(), frame, 1e-4, {}});
   // The real-scene panel: points sampled on the scene's surfaces, each its own capture.
   std::unique_ptr<EmbreeScene> scene;
-  double scene_offset = 1e-4;  // as capture2qt takes it for the scene
   if (!options.scene.empty() && options.scene_points > 0) {
     const TriangleMesh mesh = read_obj(options.scene);
     scene = std::make_unique<EmbreeScene>(mesh);
-    scene_offset = mesh.ray_offset();
+    const double offset = mesh.ray_offset();
     for (const SurfacePoint& p : sample_surface(mesh, std::size_t(options.scene_points), 7))
-      lights.push_back({"scene", scene.get(), p.position, Frame::from_normal(p.normal), {}});
+      lights.push_back(
+          {"scene", scene.get(), p.position, Frame::from_normal(p.normal), offset, {}});
   }
   for (Light& l : lights)
     l.grid = capture(environment, l.scene, l.position, l.frame,
-                     {.resolution = finest,
-                      .strata = 2,
-                      .ray_offset = l.name == "scene" ? scene_offset : 1e-4})
+                     {.resolution = finest, .strata = 2, .ray_offset = l.ray_offset})
                  .texels;
   // Outgoing directions: where the sun's mirror image lies (the highlight), and oblique; at the
   // scene's points 30 degrees from the normal.
