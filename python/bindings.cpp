@@ -8,16 +8,21 @@
 #include <tbb/task_arena.h>
 
 #include <array>
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <functional>
+#include <future>
 #include <limits>
 #include <memory>
 #include <numbers>
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <thread>
+#include <utility>
 #include <vector>
 
 #include "basis/brdf/brdf_spec.h"
@@ -26,6 +31,7 @@
 #include "basis/core/convolution.h"
 #include "basis/core/file_error.h"
 #include "basis/core/projection.h"
+#include "basis/core/task.h"
 #include "basis/core/version.h"
 #include "basis/format/qt_file.h"
 #include "basis/format/qt_recipe.h"
@@ -46,6 +52,7 @@ using Owner = std::shared_ptr<const void>;
 struct Tree {
   Owner owner;
   PackedTreeView view;
+  ProjectionOptions projection;  // how it was cut: written with it
 };
 
 struct Table {
@@ -114,7 +121,7 @@ std::size_t capture_index(const Captures& c, long long k) {
 
 // Capture k's radiance tree (Captures.tree and indexing).
 Tree capture_tree(const Captures& c, long long k) {
-  return Tree{c.owner, c.view.trees.tree(capture_index(c, k))};
+  return Tree{c.owner, c.view.trees.tree(capture_index(c, k)), c.projection};
 }
 
 // A path argument: str, bytes or os.PathLike, as the file system's bytes (os.fsencode, so that
@@ -189,6 +196,10 @@ BoundKind bounds_of(const std::string& name) {
 // infinities.
 Grid to_grid(const py::array_t<double, py::array::c_style | py::array::forcecast>& a) {
   std::array<py::ssize_t, 4> shape{1, 1, 0, 0};
+  if (a.ndim() == 0)
+    throw py::type_error(
+        "a grid is an array of shape (N, N), (C, N, N) or (G, C, N, N), not a "
+        "single value");
   if (a.ndim() == 2)
     shape = {1, 1, a.shape(0), a.shape(1)};
   else if (a.ndim() == 3)
@@ -224,9 +235,9 @@ py::array_t<float> grid_array(Grid grid) {
   return out;
 }
 
-Tree own(PackedTree tree) {
+Tree own(PackedTree tree, const ProjectionOptions& projection) {
   auto held = std::make_shared<const PackedTree>(std::move(tree));
-  return {held, held->view()};
+  return {held, held->view(), projection};
 }
 
 Table own(BrdfTable table, const ProjectionOptions& projection) {
@@ -260,6 +271,42 @@ int arena_threads(int threads) {
     throw std::invalid_argument("threads must be 0 (every core) or 1..1024, got " +
                                 std::to_string(threads));
   return threads > 0 ? threads : tbb::task_arena::automatic;
+}
+
+// Runs work(control) on a thread of its own while this one, without the GIL, looks for signals
+// every 50 ms. On one (Ctrl-C), the control asks the work to stop, and the exception the signal's
+// handler raised (KeyboardInterrupt) is raised once it has. Needs the GIL.
+template <class Work>
+auto run_interruptible(Work&& work) -> decltype(work(std::declval<const TaskControl&>())) {
+  using Result = decltype(work(std::declval<const TaskControl&>()));
+  std::atomic<bool> cancel{false};
+  TaskControl control;
+  control.cancel = &cancel;
+  std::packaged_task<Result()> task([&] { return work(control); });
+  std::future<Result> done = task.get_future();
+  std::optional<py::error_already_set> signal;
+  {
+    py::gil_scoped_release release;
+    std::thread worker(std::move(task));
+    while (done.wait_for(std::chrono::milliseconds(50)) != std::future_status::ready) {
+      if (signal) continue;
+      py::gil_scoped_acquire acquire;
+      if (PyErr_CheckSignals() != 0) {
+        signal.emplace();  // takes the handler's exception
+        cancel = true;
+      }
+    }
+    worker.join();
+  }
+  if (signal) throw std::move(*signal);
+  return done.get();  // the work's own exception, if it threw one
+}
+
+// Issues each line as a RuntimeWarning (an exception when the warnings filter makes it one).
+// Needs the GIL.
+void warn_each(const std::vector<std::string>& lines) {
+  for (const std::string& line : lines)
+    if (PyErr_WarnEx(PyExc_RuntimeWarning, line.c_str(), 1) != 0) throw py::error_already_set();
 }
 
 // Raises `type` with `message`, whose bytes that are not UTF-8 (a file's own, quoted in a
@@ -400,7 +447,7 @@ PYBIND11_MODULE(basis, m) {
         const Grid g = to_grid(grid);
         const BoundKind kind = bounds_of(bounds);
         py::gil_scoped_release release;
-        return own(pack(project(g, options), kind));
+        return own(pack(project(g, options), kind), options);
       },
       py::arg("grid"), py::arg("tolerance") = 0.05, py::arg("absolute") = false,
       py::arg("bounds") = "l2",
@@ -448,7 +495,7 @@ PYBIND11_MODULE(basis, m) {
               throw py::index_error("entry (" + std::to_string(i) + ", " + std::to_string(j) +
                                     ") outside the " + std::to_string(m) + " x " +
                                     std::to_string(m) + " table");
-            return Tree{t.owner, t.view.entry(i, j)};
+            return Tree{t.owner, t.view.entry(i, j), t.projection};
           },
           py::arg("i"), py::arg("j"),
           "The entry at wo's parabolic coordinates s = -1 + 2 i / (M - 1), t = -1 + 2 j / (M - 1) "
@@ -467,7 +514,8 @@ PYBIND11_MODULE(basis, m) {
           "tangents", [](const Captures& c) { return vectors(c.view.tangents); },
           "The tangents, N x 3 (a copy): each capture's frame has x along its tangent.")
       .def("tree", &capture_tree, py::arg("k"),
-           "Capture k's radiance tree (negative k counts from the end; IndexError outside).")
+           "Capture k's radiance tree (negative k counts from the end; IndexError outside): the "
+           "light it saw, less the compact lights it keeps apart (lights(k)), which shade() adds.")
       .def("__getitem__", &capture_tree, py::arg("k"), "Capture k's radiance tree, as tree(k).")
       .def(
           "lights",
@@ -522,7 +570,7 @@ PYBIND11_MODULE(basis, m) {
             if (f.file->kind() != QtKind::tree)
               throw FileError(f.file->name() + ": holds a " + to_string(f.file->kind()) +
                               ", not a single tree (table().entry(i, j) or captures().tree(k))");
-            return Tree{f.file, f.file->tree()};
+            return Tree{f.file, f.file->tree(), f.file->projection()};
           },
           "The file's tree (a file of one tree).")
       .def(
@@ -634,23 +682,22 @@ PYBIND11_MODULE(basis, m) {
         options.projection.local_floor = tolerance_floor;
         options.tilt_derivatives = tilt;
         options.wo_derivatives = wo_derivatives;
-        BrdfTable table = [&] {
-          py::gil_scoped_release release;
-          tbb::task_arena arena(arena_threads(threads));
+        // As brdf2qt warns, before any work and once the options are known to be valid:
+        // resolutions too coarse for the lobe.
+        check_table_options(options);
+        const int arena_size = arena_threads(threads);
+        warn_each(table_resolution_warnings(b.spec.brdf, options));
+        BrdfTable table = run_interruptible([&](const TaskControl& control) {
+          tbb::task_arena arena(arena_size);
           return arena.execute([&] {
             try {
-              return tabulate_brdf(b.spec.brdf, options);
+              return tabulate_brdf(b.spec.brdf, options, control);
             } catch (const std::overflow_error& e) {
               if (b.source.empty()) throw;
               throw std::overflow_error(b.source + ": " + e.what());
             }
           });
-        }();
-        // As brdf2qt warns, once the options are known to be valid: resolutions too coarse for
-        // the lobe.
-        for (const std::string& warning : table_resolution_warnings(b.spec.brdf, options))
-          if (PyErr_WarnEx(PyExc_RuntimeWarning, warning.c_str(), 1) != 0)
-            throw py::error_already_set();
+        });
         table.spec = b.spec.text;
         Table out = own(std::move(table), options.projection);
         out.brdf = b.spec.brdf;
@@ -662,7 +709,9 @@ PYBIND11_MODULE(basis, m) {
       py::arg("tolerance") = py::none(), py::arg("tolerance_floor") = 0.2, py::arg("tilt") = true,
       py::arg("wo_derivatives") = true, py::arg("threads") = 0,
       "A BRDF table. Each option is the argument when given, else the spec's \"table\" block, else "
-      "brdf2qt's default (outgoing resolution from the lobe's width, 128 texels, tolerance 5 %).");
+      "brdf2qt's default (outgoing resolution from the lobe's width, 128 texels, tolerance 5 %). "
+      "Resolutions too coarse for the lobe are RuntimeWarnings, issued before the work; Ctrl-C "
+      "stops it (KeyboardInterrupt).");
 
   m.def(
       "reflect",
@@ -674,7 +723,9 @@ PYBIND11_MODULE(basis, m) {
       py::arg("table"), py::arg("radiance"), py::arg("wo") = std::array<double, 3>{0, 0, 1},
       py::arg("accuracy") = 0.0, py::arg("interpolation") = "hermite", py::arg("bound") = true,
       "Reflected radiance towards wo (pi included) of one radiance tree, and its bound (inf with "
-      "bound=False: the same value, faster).");
+      "bound=False: the same value, faster). A capture's tree leaves out the compact lights the "
+      "capture keeps apart (Captures.lights): shade() adds them. Hermite interpolation needs "
+      "the table's derivatives over wo; without them (has_wo_derivatives) lookups are bilinear.");
 
   m.def(
       "reflect_tilted",
@@ -685,8 +736,9 @@ PYBIND11_MODULE(basis, m) {
             : mode == "reparametrised" ? TiltCompensation::reparametrised
             : mode == "compensated"    ? TiltCompensation::compensated
                                        : throw std::invalid_argument(
-                                             "mode must be none, reparametrised or "
-                                                "compensated");
+                                             "mode must be 'none', 'reparametrised' or "
+                                                "'compensated', got '" +
+                                             mode + "'");
         return result(reflect_tilted(table.view, radiance.view, to_direction(to_vec3(wo), "wo"),
                                      {tilt[0], tilt[1]}, compensation));
       },
@@ -744,13 +796,15 @@ PYBIND11_MODULE(basis, m) {
          const py::array_t<double, py::array::c_style | py::array::forcecast>& normals,
          const py::object& env_argument, std::optional<std::array<double, 3>> constant,
          const py::object& scene_argument, int res, int spp, double tolerance, std::uint64_t seed,
-         bool splat_lights, int threads) {
-        const std::string env = path_of(env_argument, "env"),
-                          scene = path_of(scene_argument, "scene");
+         bool splat_lights, bool zero_invalid, int threads) {
+        const std::string env = env_argument.is_none() ? "" : path_of(env_argument, "env"),
+                          scene = scene_argument.is_none() ? "" : path_of(scene_argument, "scene");
         const std::vector<Vec3> p = to_vectors(points, "points"),
                                 n = to_vectors(normals, "normals");
         if (p.size() != n.size()) throw std::invalid_argument("as many normals as points");
-        if (env.empty() == !constant)
+        if (!env.empty() && constant)
+          throw std::invalid_argument("env and constant exclude each other: give one light");
+        if (env.empty() && !constant)
           throw std::invalid_argument("give the light: env=PATH or constant=(r, g, b)");
         if (spp < 1 || spp > 4096)
           throw std::invalid_argument("spp must be a square number from 1 to 4096, got " +
@@ -759,43 +813,72 @@ PYBIND11_MODULE(basis, m) {
         if (strata * strata != spp) throw std::invalid_argument("spp must be a square number");
         if (!is_valid_resolution(res))
           throw std::invalid_argument("res must be a power of two from 2 to 512");
+        const int arena_size = arena_threads(threads);
         std::vector<SurfacePoint> surface;
         for (std::size_t k = 0; k < p.size(); ++k) {
           surface.push_back({p[k], to_direction(n[k], "normals[" + std::to_string(k) + "]")});
         }
-        py::gil_scoped_release release;
         CaptureRecipe recipe;
         recipe.environment = env;
         if (constant) recipe.constant = {(*constant)[0], (*constant)[1], (*constant)[2]};
         recipe.scene = scene;
         recipe.projection.tolerance = tolerance;
+        check_projection_options(recipe.projection);
+        // The provenance can name the inputs: refused before any work, as capture2qt does.
+        static_cast<void>(capture_parameters(recipe));
+        // The map and the scene, read without the GIL; what they repaired, warned of after.
         std::unique_ptr<TriangleMesh> mesh;
         std::unique_ptr<EmbreeScene> traced;
-        if (!scene.empty()) {
-          mesh = std::make_unique<TriangleMesh>(read_obj(scene));
-          traced = std::make_unique<EmbreeScene>(*mesh);
+        std::unique_ptr<Environment> environment;
+        std::vector<std::string> warnings;
+        {
+          py::gil_scoped_release release;
+          environment =
+              std::make_unique<Environment>(env.empty() ? Environment::constant(recipe.constant)
+                                                        : Environment(read_image(env), 0, env));
+          const std::string repaired = repaired_texels_warning(
+              *environment, zero_invalid,
+              "repair the map, or pass zero_invalid=True to read them as 0");
+          if (!repaired.empty()) warnings.push_back(repaired);
+          if (!scene.empty()) {
+            mesh = std::make_unique<TriangleMesh>(read_obj(scene));
+            if (mesh->dropped_degenerate > 0)
+              warnings.push_back(scene + ": " + std::to_string(mesh->dropped_degenerate) +
+                                 " degenerate triangles dropped");
+            warnings.insert(warnings.end(), mesh->reader_warnings.begin(),
+                            mesh->reader_warnings.end());
+            traced = std::make_unique<EmbreeScene>(*mesh);
+          }
         }
+        warn_each(warnings);
         recipe.options = {.resolution = res,
                           .strata = strata,
                           .seed = seed,
                           .ray_offset = mesh ? mesh->ray_offset() : 1e-4,
                           .compact_lights = splat_lights ? CaptureOptions::CompactLights::splatted
                                                          : CaptureOptions::CompactLights::apart};
-        const Environment environment = env.empty() ? Environment::constant(recipe.constant)
-                                                    : Environment(read_image(env), 0, env);
         CaptureSetOptions options;
         options.capture = recipe.options;
         options.projection = recipe.projection;
-        tbb::task_arena arena(arena_threads(threads));
-        auto set = std::make_shared<const CaptureSet>(arena.execute(
-            [&] { return capture_set(environment, traced.get(), surface, options); }));
+        auto set =
+            std::make_shared<const CaptureSet>(run_interruptible([&](const TaskControl& control) {
+              tbb::task_arena arena(arena_size);
+              return arena.execute([&] {
+                return capture_set(*environment, traced.get(), surface, options, control);
+              });
+            }));
         return Captures{set, set->view(), recipe.projection, recipe, std::nullopt};
       },
-      py::arg("points"), py::arg("normals"), py::arg("env") = "", py::arg("constant") = py::none(),
-      py::arg("scene") = "", py::arg("res") = 128, py::arg("spp") = 4, py::arg("tolerance") = 0.05,
-      py::arg("seed") = 1, py::arg("splat_lights") = false, py::arg("threads") = 0,
+      py::arg("points"), py::arg("normals"), py::arg("env") = py::none(),
+      py::arg("constant") = py::none(), py::arg("scene") = py::none(), py::arg("res") = 128,
+      py::arg("spp") = 4, py::arg("tolerance") = 0.05, py::arg("seed") = 1,
+      py::arg("splat_lights") = false, py::arg("zero_invalid") = false, py::arg("threads") = 0,
       "Captures at points (N x 3) with normals (N x 3), lit by a lat-long map (env) or a constant, "
-      "occluded by an OBJ scene: what capture2qt --points makes, with the same defaults.");
+      "occluded by an OBJ scene: what capture2qt --points makes, with the same defaults. A map "
+      "with NaN or infinite texels is a basis.Error unless zero_invalid=True reads them as 0 "
+      "(capture2qt --zero-invalid); texels read as 0, degenerate triangles dropped and "
+      "material files the scene names but that cannot be found are RuntimeWarnings. Ctrl-C stops "
+      "the work (KeyboardInterrupt).");
 
   m.def(
       "write",
@@ -816,9 +899,10 @@ PYBIND11_MODULE(basis, m) {
           };
         } else if (py::isinstance<Tree>(what)) {
           const Tree& t = what.cast<const Tree&>();
-          encode = [&t] { return encode_tree(t.view, {}, python_provenance()); };
+          encode = [&t] { return encode_tree(t.view, t.projection, python_provenance()); };
         } else {
-          throw std::invalid_argument("write takes a Table, Captures or Tree");
+          throw py::type_error("write takes a Table, Captures or Tree, got " +
+                               std::string(py::str(py::type::of(what).attr("__name__"))));
         }
         py::gil_scoped_release release;
         write_qt(path, encode());

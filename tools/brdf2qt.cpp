@@ -79,6 +79,7 @@ int main(int argc, char** argv) {
     basis::cli::check_outputs_spare_inputs({{"-o", output}}, {{"spec", spec_path}});
     basis::cli::check_output_place(output);
     const basis::BrdfSpec spec = basis::read_brdf_spec(spec_path);
+    basis::cli::check_outputs_spare_inputs({{"-o", output}}, {{"spec's \"file\"", spec.data_file}});
     basis::BrdfTableOptions options = basis::table_options(spec);
     if (wo_res) options.wo_resolution = wo_res;
     if (wi_res) options.wi_resolution = wi_res;

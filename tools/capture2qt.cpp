@@ -235,18 +235,10 @@ int main(int argc, char** argv) {
     const basis::Environment environment =
         env_path.empty() ? basis::Environment::constant(recipe.constant)
                          : basis::Environment(basis::read_image(env_path), env_rotate, env_path);
-    if (const basis::EnvironmentRepairs& bad = environment.repairs(); bad.total() > 0) {
-      if (bad.nan + bad.infinite > 0 && !zero_invalid)
-        throw basis::FileError(env_path + ": " + std::to_string(bad.nan) + " NaN and " +
-                               std::to_string(bad.infinite) +
-                               " infinite texel values (repair the map, or pass --zero-invalid "
-                               "to read them as 0)");
-      if (!quiet)
-        std::fprintf(stderr,
-                     "capture2qt: warning: %s: %lld NaN, %lld infinite and %lld negative texel "
-                     "values set to 0\n",
-                     env_path.c_str(), bad.nan, bad.infinite, bad.negative);
-    }
+    const std::string repaired = basis::repaired_texels_warning(
+        environment, zero_invalid, "repair the map, or pass --zero-invalid to read them as 0");
+    if (!quiet && !repaired.empty())
+      std::fprintf(stderr, "capture2qt: warning: %s\n", repaired.c_str());
 
     // Scene and points.
     std::unique_ptr<basis::TriangleMesh> mesh;
@@ -256,6 +248,8 @@ int main(int argc, char** argv) {
       if (!quiet && mesh->dropped_degenerate > 0)
         std::fprintf(stderr, "capture2qt: warning: %s: %lld degenerate triangles dropped\n",
                      scene_path.c_str(), mesh->dropped_degenerate);
+      for (const std::string& warning : mesh->reader_warnings)
+        if (!quiet) std::fprintf(stderr, "capture2qt: warning: %s\n", warning.c_str());
       scene = std::make_unique<basis::EmbreeScene>(*mesh);
     }
     recipe.scene = scene_path;

@@ -2,11 +2,13 @@
 
 #include <unistd.h>
 
+#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <csignal>
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <iostream>
 #include <limits>
@@ -26,6 +28,13 @@ std::atomic<bool> interrupted{false};
 
 extern "C" void on_signal(int) {
   interrupted.store(true);
+}
+
+// Whether everything written to standard output reached it; errno says why not (a full disk).
+bool standard_output_written() {
+  std::cout.flush();
+  errno = 0;
+  return std::fflush(stdout) == 0 && !std::ferror(stdout) && !std::cout.fail();
 }
 
 std::string one_line(std::string text) {
@@ -63,6 +72,12 @@ int run(CLI::App& app, int argc, char** argv, const std::function<void()>& body)
     if (interrupted.load()) {
       std::cerr << tool << ": interrupted\n";
       return kExitInterrupted;
+    }
+    if (!standard_output_written()) {
+      std::cerr << tool
+                << ": standard output: " << (errno != 0 ? std::strerror(errno) : "write error")
+                << "; results lost\n";
+      return kExitBadData;
     }
     return kExitOk;
   } catch (const UsageError& e) {
@@ -212,6 +227,8 @@ void check_outputs_spare_inputs(const std::vector<NamedPath>& outputs,
   for (const NamedPath& in : given) {
     if (in.path.empty()) continue;
     inputs.push_back({"the file " + in.option + " reads", in.path});
+    // A shard's checksum beside it (capture2qt's) belongs to it.
+    inputs.push_back({"the checksum of " + in.path, checksum_path(in.path)});
     if (!is_manifest(in.path)) continue;
     CaptureManifest manifest;
     try {

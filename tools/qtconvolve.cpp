@@ -312,6 +312,16 @@ int main(int argc, char** argv) {
       throw UsageError("--accuracy stops on the certified bound: not with --no-bound");
     basis::CaptureSource a = basis::CaptureSource::open(a_path);
     basis::CaptureSource b = basis::CaptureSource::open(b_path);
+    if (reference) {
+      // What a reference reads again (the map, the scene, the spec the files record) is an
+      // input too.
+      std::vector<basis::cli::NamedPath> recorded;
+      for (basis::CaptureSource* source : {&a, &b})
+        if (source->size() > 0)
+          for (const std::string& file : source->shard(0).provenance().sources)
+            recorded.push_back({"--reference", file});
+      basis::cli::check_outputs_spare_inputs({{"-o", output}, {"--png", png}}, recorded);
+    }
     basis::ShadingOptions shading;
     shading.wo = basis::cli::parse_direction(wo_text, "--wo");
     if (shading.wo.z() < 0) throw UsageError("--wo is below the horizon (z < 0)");

@@ -113,7 +113,11 @@ Convolution FileConvolution::operator()(std::size_t k) const {
   if (dense_table_) {
     const auto lights = other_->kind() == QtKind::capture_set ? shaded_captures().lights_of(k)
                                                               : std::span<const DirectionalLight>();
-    return shade_dense(*dense_table_, dense_b_[k], lights, shading_.light_brdf);
+    Convolution result = shade_dense(*dense_table_, dense_b_[k], lights, shading_.light_brdf);
+    // Values beyond the floats are refused, as the trees' descents refuse them.
+    for (int c = 0; c < 3; ++c)
+      result.value[c] = certified_float(result.value[c], 0).value;
+    return result;
   }
   if (!dense_a_.empty()) {
     // A set of one capture stands for every point.
@@ -122,7 +126,7 @@ Convolution FileConvolution::operator()(std::size_t k) const {
     Convolution result;
     const Rgb d = dense_convolve_simd(ga, gb);
     for (int c = 0; c < 3; ++c)
-      result.value[c] = float(std::numbers::pi * d[c]);
+      result.value[c] = certified_float(std::numbers::pi * d[c], 0).value;
     return result;
   }
   if (table_) {

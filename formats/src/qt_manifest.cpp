@@ -147,11 +147,17 @@ CaptureManifest make_manifest(const std::vector<ShardFile>& shards,
   manifest.path = manifest_path;
   manifest.total_points = shards.front().recipe.shard->total_points;
   manifest.run_parameters = shards.front().run_parameters;
+  // Both as the file system resolves them (symbolic links, "..") before one is named from the
+  // other: a name relative to an unresolved folder can lead elsewhere.
   const std::filesystem::path folder =
-      std::filesystem::absolute(std::filesystem::path(manifest_path)).parent_path();
+      std::filesystem::weakly_canonical(std::filesystem::absolute(manifest_path)).parent_path();
   for (const ShardFile& s : shards) {
-    const std::filesystem::path file = std::filesystem::absolute(s.file.name());
+    const std::filesystem::path file = std::filesystem::weakly_canonical(s.file.name());
     const std::string listed = file.lexically_relative(folder).string();
+    std::error_code error;
+    if (listed.empty() || !std::filesystem::equivalent(folder / listed, s.file.name(), error))
+      throw FileError(s.file.name() + ": " + manifest_path +
+                      " cannot name it from its folder; write the manifest elsewhere");
     // A JSON manifest names its shards in UTF-8; another name could not be read back as itself.
     if (!json_holds_exactly(listed))
       throw FileError(s.file.name() + ": a manifest cannot list a file whose name is not UTF-8");

@@ -110,6 +110,9 @@ CaptureRecipe capture_recipe(const QtFile& captures) {
   try {
     r.options.resolution = j.at("res").get<int>();
     const int spp = j.at("spp").get<int>();
+    if (spp < 1 || spp > 4096)
+      throw FileError(captures.name() + ": its provenance records " + std::to_string(spp) +
+                      " samples per texel, where captures take 1 to 4096");
     r.options.strata = 1;
     while (r.options.strata * r.options.strata < spp)
       ++r.options.strata;

@@ -2,6 +2,7 @@
 // and future files are rejected with one clear line; writes are atomic.
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -898,6 +899,28 @@ TEST(QtRecipe, CaptureParametersReadBackAsTheSameRecipe) {
   // Files from elsewhere say nothing about their inputs.
   const auto foreign = encode_capture_set(sample_captures(2).view(), {}, test_provenance());
   EXPECT_THROW(capture_recipe(QtFile::from_bytes(foreign, "f.qt")), FileError);
+}
+
+// A recorded sample count no capture takes is refused by name: 2^31 - 1 used to send the
+// strata's search (whose square overflowed) into a loop without end.
+TEST(QtRecipe, SampleCountsNoCaptureTakesAreRefused) {
+  CaptureRecipe r;
+  r.environment = "sky.exr";
+  for (const long long spp : {2147483647LL, 4097LL, 0LL, -4LL}) {
+    nlohmann::json parameters = nlohmann::json::parse(capture_parameters(r));
+    parameters["spp"] = spp;
+    const auto bytes = encode_capture_set(sample_captures(1).view(), r.projection,
+                                          {"capture2qt", "1", parameters.dump(), {}});
+    try {
+      capture_recipe(QtFile::from_bytes(bytes, "odd.qt"));
+      ADD_FAILURE() << spp << " samples per texel were taken";
+    } catch (const FileError& e) {
+      EXPECT_NE(std::string(e.what()).find("odd.qt: its provenance records " + std::to_string(spp) +
+                                           " samples per texel"),
+                std::string::npos)
+          << e.what();
+    }
+  }
 }
 
 }  // namespace

@@ -190,6 +190,25 @@ TEST(Manifests, ListShardsAndCheckThemAsTheyOpen) {
   expect_file_error([&] { open_manifest_shard(m, 2); }, "s.2.qt");
 }
 
+// A manifest written through ".." or a symbolic link names its shards from the folder it
+// lands in: they used to be named from the path as given, and were then not found.
+TEST(Manifests, NameTheirShardsFromTheFolderTheyLandIn) {
+  TempDir dir;
+  const std::vector<std::string> paths = write_run(dir, 7, 2);
+  std::vector<ShardFile> shards = open_all(paths);
+  order_shards_of_one_run(shards);
+  std::filesystem::create_directory(dir.file("a"));
+  std::filesystem::create_directory(dir.file("other"));
+  std::filesystem::create_directory_symlink(dir.file("other"), dir.file("link"));
+  for (const std::string manifest : {"a/../other/up.qtm", "link/linked.qtm"}) {
+    write_manifest(make_manifest(shards, dir.file(manifest)));
+    const CaptureManifest m = read_manifest(dir.file(manifest));
+    EXPECT_EQ(m.shards[0].file, "../s.0.qt") << manifest;
+    for (std::size_t k = 0; k < 2; ++k)
+      EXPECT_EQ(open_manifest_shard(m, k).captures().size(), m.shards[k].points) << manifest;
+  }
+}
+
 TEST(Manifests, MalformedManifestsNameTheLineAndField) {
   TempDir dir;
   const std::string path = dir.file("bad.qtm");

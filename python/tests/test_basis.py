@@ -1,9 +1,13 @@
 """The Python module against the C++ tools on the same files, NumPy round trips, and errors.
 Runs with PYTHONPATH at the built module, BASIS_BIN at the tools and BASIS_SOURCE_DIR at the
 source tree (ctest sets them)."""
+import gc
 import json
 import os
+import signal
 import subprocess
+import sys
+import time
 import warnings
 
 import numpy as np
@@ -79,8 +83,15 @@ def test_tree_words_are_the_nodes_in_place():
     assert tree.texel_words.shape[0] == 0
     assert not tree.shared_values  # a projected tree's values are halves
     assert not words.flags.writeable
-    assert words.base is not None  # a view, kept alive by the tree
-    assert np.array_equal(tree.words, words)
+    scale = tree.value_scale
+    del tree
+    gc.collect()
+    # The view outlives the Python tree and still reads its nodes: the root's link word (first
+    # child at node 1, every quadrant refined) and its four values, halves times the value scale,
+    # which are the quadrants' averages of the grid (columns 0..7 average 3.5, 8..15 11.5).
+    assert words[0, 0] == (1 << 4 | 15)
+    root = np.sort(words[0, 1:3].copy().view(np.float16).astype(np.float64) * scale)
+    assert root == pytest.approx([3.5, 3.5, 11.5, 11.5])
 
 
 def test_convolution_matches_the_texels_within_its_bound():
@@ -405,3 +416,97 @@ def test_grids_beyond_floats_and_specs_with_a_nul_are_refused():
     # A constant light whose texels overflow once averaged: the argument, as OverflowError.
     with pytest.raises(OverflowError, match="constant radiance.*too large for captures"):
         basis.capture(np.zeros((1, 3)), np.array([[0, 0, 1.0]]), constant=(1e38,) * 3)
+
+
+def run_and_interrupt(code, tmp_path):
+    """Runs `code` in a Python of its own, which prints "started" just before its long call;
+    1.5 s later sends it SIGINT, and returns its exit status and stderr. The long calls below
+    would take minutes: an interrupt that waited for them would outlast the 60 s allowed."""
+    script = tmp_path / "long_call.py"
+    script.write_text("import sys\nimport numpy as np\nimport basis\n" + code)
+    process = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True, cwd=SOURCE)
+    try:
+        assert process.stdout.readline().strip() == "started"
+        time.sleep(1.5)
+        process.send_signal(signal.SIGINT)
+        _, err = process.communicate(timeout=60)
+    finally:
+        process.kill()
+        process.wait()
+    return process.returncode, err
+
+
+def test_ctrl_c_stops_tabulation_and_tracing(tmp_path):
+    """Both long calls run with the GIL released; Ctrl-C reaches them (they stop at their next
+    entry or capture) and raises KeyboardInterrupt, as brdf2qt and capture2qt stop on it."""
+    tabulation = (
+        'brdf = basis.Brdf.from_json(\'{"model": "phong", "kd": 0.5, "ks": 0.4, '
+        '"exponent": 100}\')\n'
+        'print("started", flush=True)\n'
+        "basis.tabulate(brdf, wo_res=129, threads=1)\n")
+    tracing = (
+        "points = np.zeros((10000, 3)); normals = np.tile([0.0, 0.0, 1.0], (10000, 1))\n"
+        'print("started", flush=True)\n'
+        'basis.capture(points, normals, constant=(1, 1, 1), scene="data/scene.obj", '
+        "threads=1)\n")
+    for code in (tabulation, tracing):
+        status, err = run_and_interrupt(code, tmp_path)
+        assert status != 0 and "KeyboardInterrupt" in err, err
+
+
+def write_pfm(path, rgb):
+    """A little-endian RGB PFM file of rows listed top first (PFM stores them bottom first)."""
+    height, width, _ = rgb.shape
+    with open(path, "wb") as f:
+        f.write(f"PF\n{width} {height}\n-1.0\n".encode())
+        f.write(np.ascontiguousarray(rgb[::-1], dtype="<f4").tobytes())
+
+
+def test_a_map_with_nan_or_infinite_texels_is_refused_as_capture2qt_refuses_it(tmp_path):
+    sky = np.ones((8, 16, 3), np.float32)
+    sky[1, 2, 0] = np.nan
+    sky[2, 3, 1] = np.inf
+    sky[3, 4, 2] = -1
+    write_pfm(tmp_path / "bad.pfm", sky)
+    point, normal = np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]])
+    with pytest.raises(basis.Error, match=r"bad\.pfm: 1 NaN and 1 infinite texel values"):
+        basis.capture(point, normal, env=str(tmp_path / "bad.pfm"), res=8)
+    with pytest.warns(RuntimeWarning, match="1 NaN, 1 infinite and 1 negative texel values set"):
+        captured = basis.capture(point, normal, env=str(tmp_path / "bad.pfm"), res=8,
+                                 zero_invalid=True)
+    # What is left is the unit sky with three texels' channels at 0: the cosine-weighted mean
+    # of the capture's tree is at most 1 and within a few per cent of it.
+    mean = captured.tree(0).integrate(0, 0)
+    assert 0.9 < mean <= 1.0 + 1e-3
+    with pytest.raises(ValueError, match="exclude each other"):
+        basis.capture(point, normal, env=str(tmp_path / "bad.pfm"), constant=(1, 1, 1))
+
+
+def test_a_written_tree_records_how_it_was_cut(tmp_path):
+    grid = np.arange(256, dtype=np.float32).reshape(16, 16)
+    basis.write(str(tmp_path / "t.qt"), basis.project(grid, 0.5, absolute=True, bounds="linf"))
+    info = json.loads(tool("qtinfo", tmp_path / "t.qt", "--json"))
+    assert info["tolerance"]["value"] == 0.5
+    assert info["tolerance"]["mode"] == "absolute"
+
+
+def test_arguments_of_the_wrong_kind_are_type_errors():
+    with pytest.raises(TypeError, match="got int"):
+        basis.write("never.qt", 42)
+    with pytest.raises(TypeError, match="single value"):
+        basis.project(3.0)
+    with pytest.raises(ValueError, match="got -1e-09"):
+        basis.project(np.ones((8, 8), np.float32), tolerance=-1e-9)
+
+
+def test_tabulate_warns_before_it_works():
+    """A Phong 10^4 table on a 128 x 128 outgoing grid (the lobe asks for 129) takes many
+    minutes: with warnings as errors, the warning must come before the work."""
+    code = ("import warnings\nwarnings.simplefilter('error')\n"
+            'sharp = basis.Brdf.from_json(\'{"model": "phong", "ks": 1, "exponent": 10000}\')\n'
+            "try:\n    basis.tabulate(sharp, wo_res=128, threads=1)\n"
+            "except RuntimeWarning as w:\n    print('warned:', w)\n")
+    done = subprocess.run([sys.executable, "-c", "import basis\n" + code], capture_output=True,
+                          text=True, timeout=60)
+    assert "warned:" in done.stdout and "outgoing directions" in done.stdout, done.stderr

@@ -4,6 +4,7 @@
 // data and 2 for bad usage, and leaves no output or temporary file behind.
 #include <gtest/gtest.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -357,6 +358,26 @@ TEST(BadInputMatrix, UnwritableOutputs) {
   }
 }
 
+// Results printed to a standard output that cannot take them (a full device) are an error
+// naming it, where they used to be lost with exit 0.
+TEST(BadInputMatrix, ResultsThatStandardOutputCannotTakeAreAnError) {
+  TempDir dir;
+  write_inputs(dir);
+  for (const std::string command : {"qtinfo ok.qt --json", "qtconvolve ok.qt cap.qt --csv"}) {
+    const std::string shell = "cd '" + dir.path() + "' && '" + testing::tool_directory().string() +
+                              "'/" + command + " > /dev/full 2> err.txt";
+    const int status = std::system(shell.c_str());
+    ASSERT_TRUE(WIFEXITED(status)) << command;
+    EXPECT_EQ(WEXITSTATUS(status), 1) << command;
+    const std::string err = testing::slurp(dir.file("err.txt"));
+    EXPECT_EQ(testing::line_count(err), 1) << err;
+    EXPECT_NE(err.find(command.substr(0, command.find(' ')) + ": standard output: "),
+              std::string::npos)
+        << err;
+    EXPECT_NE(err.find("; results lost"), std::string::npos) << err;
+  }
+}
+
 // An output that would destroy an input, or another output, is bad usage: exit 2, one line,
 // and the input keeps its bytes. An output that is a folder is refused before any work.
 TEST(BadInputMatrix, OutputsThatWouldDestroyAnInputAreRefused) {
@@ -371,6 +392,28 @@ TEST(BadInputMatrix, OutputsThatWouldDestroyAnInputAreRefused) {
         {{"ok.qt", "cap.qt", "--png", "p.png", "-o", "p.png"}, 2, "name the same file"});
   check(dir, "qtinfo", {{"cap.qt", "--png", "cap.qt"}, 2, "the file file reads"});
   check(dir, "qtmerge", {{"shard.0.qt", "-o", "shard.0.qt"}, 2, "the file inputs reads"});
+  // The data file a measured BRDF's spec names is an input too.
+  testing::write_merl_samples(dir.file("m.binary"),
+                              std::vector<double>(testing::kMerlSamples, 0.1));
+  write_text(dir.file("m.json"), R"({"model": "merl", "file": "m.binary"})");
+  const std::string samples = testing::slurp(dir.file("m.binary"));
+  check(dir, "brdf2qt", {{"m.json", "-o", "m.binary"}, 2, "m.binary is the file spec's"});
+  EXPECT_EQ(testing::slurp(dir.file("m.binary")), samples);
+  // So are the map and the scene a reference traces again.
+  ASSERT_EQ(run_tool("capture2qt",
+                     {"--env", "negative.exr", "--at", "0,0,0", "--res", "8", "-o", "lit.qt", "-q"},
+                     dir.path())
+                .status,
+            0);
+  const std::string map = testing::slurp(dir.file("negative.exr"));
+  check(dir, "qtconvolve",
+        {{"ok.qt", "lit.qt", "--reference", "-o", "negative.exr"},
+         2,
+         "negative.exr is the file --reference reads"});
+  EXPECT_EQ(testing::slurp(dir.file("negative.exr")), map);
+  // A shard's checksum beside it is part of it.
+  check(dir, "qtmerge",
+        {{"shard.0.qt", "--manifest", "shard.0.qt.xxh128"}, 2, "the checksum of shard.0.qt"});
   check(dir, "capture2qt",
         {{"--env-constant", "1,1,1", "--points", "ok.json", "-o", "ok.json"},
          2,

@@ -146,7 +146,7 @@ TEST(Capture2qtCli, RefusesNanAndInfiniteEnvironmentTexelsUnlessAskedToZeroThem)
 
 TEST(Capture2qtCli, BadScenesAndImagesAreOneLineExitOne) {
   TempDir dir;
-  std::ofstream(dir.file("nan.obj")) << "v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n";
+  std::ofstream(dir.file("nan.obj")) << "v 0 0 0\n  v 1 0 nan\nv 0 1 0\nf 1 2 3\n";  // indented
   std::ofstream(dir.file("range.obj")) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n";
   std::ofstream(dir.file("empty.obj")) << "# nothing\n";
   std::ofstream(dir.file("bad.csv")) << "0,0,0,0,0,1\n1,2,three,0,0,1\n";
@@ -166,6 +166,8 @@ TEST(Capture2qtCli, BadScenesAndImagesAreOneLineExitOne) {
     EXPECT_EQ(r.status, 1) << args[3] << ": " << r.err;
     EXPECT_EQ(testing::line_count(r.err), 1) << r.err;
   }
+  EXPECT_NE(run_tool("capture2qt", cases[0], dir.path()).err.find("nan.obj:2: vertex 2 is NaN"),
+            std::string::npos);
   EXPECT_NE(run_tool("capture2qt", cases[1], dir.path()).err.find("uses vertex 9 of 3"),
             std::string::npos);
   EXPECT_NE(run_tool("capture2qt", cases[4], dir.path()).err.find("bad.csv:2:"), std::string::npos);
@@ -177,8 +179,19 @@ TEST(Capture2qtCli, BadScenesAndImagesAreOneLineExitOne) {
                              dir.path());
   EXPECT_EQ(flat.status, 0) << flat.err;
   EXPECT_NE(flat.err.find("1 degenerate triangles dropped"), std::string::npos) << flat.err;
-  std::vector<std::string> expected = {"bad.csv", "empty.obj", "flat.obj", "flat.qt",
-                                       "nan.obj", "range.obj", "wide.exr"};
+  // A material file that is not there (its emitters would go dark) is warned of.
+  std::ofstream(dir.file("lamp.obj")) << "mtllib gone.mtl\nv 0 0 1\nv 1 0 1\nv 0 1 1\n"
+                                         "usemtl glow\nf 1 2 3\n";
+  const auto lamp = run_tool("capture2qt",
+                             {"--env-constant", "1,1,1", "--scene", "lamp.obj", "--sample", "2",
+                              "--res", "8", "-o", "lamp.qt"},
+                             dir.path());
+  EXPECT_EQ(lamp.status, 0) << lamp.err;
+  EXPECT_NE(lamp.err.find("capture2qt: warning: lamp.obj: Material file [ gone.mtl ] not found"),
+            std::string::npos)
+      << lamp.err;
+  std::vector<std::string> expected = {"bad.csv", "empty.obj", "flat.obj",  "flat.qt", "lamp.obj",
+                                       "lamp.qt", "nan.obj",   "range.obj", "wide.exr"};
   EXPECT_EQ(dir.entries(), expected);
 }
 

@@ -56,6 +56,7 @@ BrdfSpec parse_brdf_spec(const std::string& text, const std::string& name,
     std::filesystem::path file = root["file"].get<std::string>();
     if (file.empty()) r.fail("file", "must name a file");
     if (file.is_relative() && !folder.empty()) file = std::filesystem::path(folder) / file;
+    spec.data_file = file.string();
     // The data file's own error, with the spec and the field that named it.
     try {
       if (m == "merl")

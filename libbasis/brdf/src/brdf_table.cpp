@@ -242,12 +242,18 @@ std::vector<SquareSymmetry> brdf_symmetries(const Brdf& brdf) {
   return std::vector<SquareSymmetry>(all.begin(), all.begin() + size);
 }
 
-BrdfTable tabulate_brdf(const Brdf& brdf, const BrdfTableOptions& options,
-                        const TaskControl& control) {
-  const int m = options.wo_resolution;
-  if (m < 2 || m > 256) throw std::invalid_argument("wo resolution must be 2..256");
+void check_table_options(const BrdfTableOptions& options) {
+  if (options.wo_resolution < 2 || options.wo_resolution > 256)
+    throw std::invalid_argument("wo resolution must be 2..256");
   if (!is_valid_resolution(options.wi_resolution))
     throw std::invalid_argument("wi resolution must be a power of two from 2 to 512");
+  check_projection_options(options.projection);
+}
+
+BrdfTable tabulate_brdf(const Brdf& brdf, const BrdfTableOptions& options,
+                        const TaskControl& control) {
+  check_table_options(options);
+  const int m = options.wo_resolution;
   const std::size_t count = std::size_t(m) * m;
   std::vector<PackedTree> entries(count), tilts(options.tilt_derivatives ? count : 0);
   std::vector<char> needed(count, options.only_for.empty());

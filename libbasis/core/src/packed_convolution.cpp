@@ -10,6 +10,7 @@
 
 #include "basis/core/convolution.h"
 #include "basis/core/folded_tree.h"
+#include "basis/core/number_text.h"
 #include "scalar_descent.h"
 
 // The SIMD descent needs SSE4.1 and F16C; an AVX-512 (F, BW, VL) build also takes RGB pairs
@@ -1051,7 +1052,7 @@ void check_weights(const PackedTreeView& a, std::span<const float> weights) {
 void check_options(const ConvolutionOptions& options) {
   if (!(options.accuracy >= 0 && options.accuracy <= 1))
     throw std::invalid_argument("an accuracy target must be from 0 to 1, got " +
-                                std::to_string(options.accuracy));
+                                number_text(options.accuracy));
   if (!options.bound && options.accuracy > 0)
     throw std::invalid_argument("an accuracy target needs the certified bound it stops on");
 }

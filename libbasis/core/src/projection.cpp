@@ -8,6 +8,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "basis/core/number_text.h"
+
 namespace basis {
 
 namespace {
@@ -93,14 +95,18 @@ void build_level_exact(const float* __restrict src, const float* src_lo, const f
 
 }  // namespace
 
-std::vector<float> absolute_tolerances(const ProjectionOptions& options,
-                                       std::span<const double> channel_means) {
+void check_projection_options(const ProjectionOptions& options) {
   if (!(options.tolerance >= 0) || !std::isfinite(options.tolerance))
     throw std::invalid_argument("tolerance must be a finite number >= 0, got " +
-                                std::to_string(options.tolerance));
+                                number_text(options.tolerance));
   if (!(options.local_floor >= 0) || !std::isfinite(options.local_floor))
     throw std::invalid_argument("tolerance floor must be a finite number >= 0, got " +
-                                std::to_string(options.local_floor));
+                                number_text(options.local_floor));
+}
+
+std::vector<float> absolute_tolerances(const ProjectionOptions& options,
+                                       std::span<const double> channel_means) {
+  check_projection_options(options);
   std::vector<float> tol;
   for (double mean : channel_means)
     tol.push_back(float(options.mode == ProjectionOptions::Mode::relative

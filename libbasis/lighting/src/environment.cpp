@@ -293,4 +293,16 @@ Color Environment::irradiance(const Vec3& n, int subsamples) const {
   return sum;
 }
 
+std::string repaired_texels_warning(const Environment& environment, bool zero_invalid,
+                                    const std::string& remedy) {
+  const EnvironmentRepairs& bad = environment.repairs();
+  if (bad.nan + bad.infinite > 0 && !zero_invalid)
+    throw FileError(environment.name() + ": " + std::to_string(bad.nan) + " NaN and " +
+                    std::to_string(bad.infinite) + " infinite texel values (" + remedy + ")");
+  if (bad.total() == 0) return {};
+  return environment.name() + ": " + std::to_string(bad.nan) + " NaN, " +
+         std::to_string(bad.infinite) + " infinite and " + std::to_string(bad.negative) +
+         " negative texel values set to 0";
+}
+
 }  // namespace basis

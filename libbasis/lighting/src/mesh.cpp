@@ -34,9 +34,13 @@ void check_vertex_numbers(const std::string& path) {
   std::string line;
   long long vertex = 0;
   for (int number = 1; std::getline(in, line); ++number) {
-    if (line.size() < 2 || line[0] != 'v' || (line[1] != ' ' && line[1] != '\t')) continue;
+    // The reader skips leading blanks, so a vertex line may be indented.
+    const std::size_t start = std::min(line.find_first_not_of(" \t"), line.size());
+    if (line.size() < start + 2 || line[start] != 'v' ||
+        (line[start + 1] != ' ' && line[start + 1] != '\t'))
+      continue;
     ++vertex;
-    std::istringstream tokens(line.substr(2));
+    std::istringstream tokens(line.substr(start + 2));
     std::string token;
     for (int k = 0; tokens >> token; ++k) {
       double value = 0;
@@ -125,6 +129,8 @@ void TriangleMesh::append(const TriangleMesh& other) {
   }
   emission.insert(emission.end(), other.emission.begin(), other.emission.end());
   dropped_degenerate += other.dropped_degenerate;
+  reader_warnings.insert(reader_warnings.end(), other.reader_warnings.begin(),
+                         other.reader_warnings.end());
 }
 
 TriangleMesh read_obj(const std::string& path) {
@@ -143,6 +149,12 @@ TriangleMesh read_obj(const std::string& path) {
         (reader.Error().empty() ? std::string("cannot read OBJ") : first_line(reader.Error())));
   const tinyobj::attrib_t& attrib = reader.GetAttrib();
   TriangleMesh mesh;
+  std::istringstream warnings(reader.Warning());
+  for (std::string line; std::getline(warnings, line);)
+    if (line.find_first_not_of(" \t\r.") != std::string::npos &&
+        std::find(mesh.reader_warnings.begin(), mesh.reader_warnings.end(), path + ": " + line) ==
+            mesh.reader_warnings.end())
+      mesh.reader_warnings.push_back(path + ": " + line);
   const std::size_t vertex_count = attrib.vertices.size() / 3;
   mesh.vertices.resize(vertex_count);
   for (std::size_t i = 0; i < vertex_count; ++i)

@@ -13,12 +13,9 @@ std::unique_ptr<Environment> load_environment(const SceneFile& file,
   const SceneFile::EnvironmentSpec& e = file.environment;
   if (e.map.empty()) return std::make_unique<Environment>(Environment::constant(e.constant));
   auto environment = std::make_unique<Environment>(read_image(e.map), e.rotate_degrees, e.map);
-  const EnvironmentRepairs& bad = environment->repairs();
-  if (bad.nan + bad.infinite > 0)
-    throw FileError(e.map + ": " + std::to_string(bad.nan) + " NaN and " +
-                    std::to_string(bad.infinite) + " infinite texel values (repair the map)");
-  if (bad.negative > 0 && options.note)
-    options.note(e.map + ": " + std::to_string(bad.negative) + " negative texel values read as 0");
+  const std::string repaired =
+      repaired_texels_warning(*environment, /*zero_invalid=*/false, "repair the map");
+  if (!repaired.empty() && options.note) options.note(repaired);
   return environment;
 }
 
@@ -42,6 +39,8 @@ RenderScene load_render_scene(const SceneFile& file, const SceneLoadOptions& opt
     if (mesh.dropped_degenerate > 0 && options.note)
       options.note(spec.obj + ": " + std::to_string(mesh.dropped_degenerate) +
                    " degenerate triangles dropped");
+    for (const std::string& warning : mesh.reader_warnings)
+      if (options.note) options.note(warning);
     // A material used twice is loaded once.
     std::size_t material = m;
     for (std::size_t k = 0; k < m; ++k)

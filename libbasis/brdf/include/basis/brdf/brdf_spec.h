@@ -13,8 +13,9 @@ namespace basis {
 
 struct BrdfSpec {
   Brdf brdf;
-  std::string model;  // as written in the spec
-  std::string text;   // the spec file's contents
+  std::string model;      // as written in the spec
+  std::string text;       // the spec file's contents
+  std::string data_file;  // a measured model's data file, as read (empty for analytic models)
   // Optional "table" block.
   std::optional<int> wo_resolution;
   std::optional<int> wi_resolution;

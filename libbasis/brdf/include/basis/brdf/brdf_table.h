@@ -150,6 +150,10 @@ Grid tabulate_tilt(const Brdf& brdf, const Vec3& wo, const BrdfTableOptions& opt
 // isotropic ones without it, the half turn, or the identity alone.
 std::vector<SquareSymmetry> brdf_symmetries(const Brdf& brdf);
 
+// Throws std::invalid_argument for options tabulate_brdf refuses: resolutions out of range (wo
+// 2..256, wi a power of two 2..512) and projection tolerances that are not finite numbers >= 0.
+void check_table_options(const BrdfTableOptions& options);
+
 // Tabulates every entry in parallel (deterministic whatever the thread count) and projects it.
 // Reports progress per entry; throws Cancelled when the control asks, std::overflow_error
 // naming wo when the BRDF's values (or their derivatives) there are not finite floats, and

@@ -99,7 +99,12 @@ class QuadtreeProjector {
 // Convenience wrapper around a temporary QuadtreeProjector.
 Quadtree project(const Grid& grid, const ProjectionOptions& options = {});
 
-// Absolute per-channel tolerances that options imply for a function with the given means.
+// Throws std::invalid_argument naming the option when the tolerance or its floor is not a finite
+// number >= 0.
+void check_projection_options(const ProjectionOptions& options);
+
+// Absolute per-channel tolerances that options imply for a function with the given means
+// (checked as check_projection_options checks them).
 std::vector<float> absolute_tolerances(const ProjectionOptions& options,
                                        std::span<const double> channel_means);
 

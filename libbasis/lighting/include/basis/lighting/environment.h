@@ -132,4 +132,11 @@ class Environment {
   bool constant_ = false;
 };
 
+// What an environment's repaired texels mean for its caller. NaN or infinite texels are a
+// FileError naming the map, ending with `remedy` in brackets (how to repair or allow them),
+// unless `zero_invalid` lets them be read as 0; then, or for negative texels alone, the result
+// is a one-line warning counting what was set to 0. Empty when nothing was repaired.
+std::string repaired_texels_warning(const Environment& environment, bool zero_invalid,
+                                    const std::string& remedy);
+
 }  // namespace basis

@@ -26,6 +26,9 @@ struct TriangleMesh {
 
   // Problems repaired while reading: degenerate (zero-area) triangles dropped.
   long long dropped_degenerate = 0;
+  // What the OBJ reader went past, one line each naming the file: a material file or material
+  // it could not find (the triangles that use it then emit nothing).
+  std::vector<std::string> reader_warnings;
 
   bool has_emitters() const;
   // Length of the bounding box's diagonal (0 for an empty mesh).
