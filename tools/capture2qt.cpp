@@ -134,7 +134,8 @@ int main(int argc, char** argv) {
                  "file holds at most 2 GiB, capturing stops with an error beyond");
   app.add_option("--dump", dump,
                  "also write every capture's texels as DIR/capture_KKKKK.exr (K zero-padded to "
-                 "five digits; lights splatted in)");
+                 "five digits; lights splatted in); new files only: an image of those names "
+                 "already in DIR is an error before any work");
   app.add_flag("--splat-lights", splat,
                "put compact lights into the texels they fall in instead of keeping them apart");
   app.add_option("--threads", threads, "worker threads (default: all cores)")
@@ -322,13 +323,23 @@ int main(int argc, char** argv) {
     if (!dump.empty()) {
       if (!std::filesystem::is_directory(dump))
         throw basis::FileError(dump + ": not a directory (--dump writes into an existing one)");
-      options.on_grid = [&](std::size_t index, const basis::Grid& grid,
-                            std::span<const basis::DirectionalLight> lights) {
+      const auto dumped_path = [&](std::size_t index) {
         char name[32];
         std::snprintf(name, sizeof name, "capture_%05zu.exr", index);
+        return (std::filesystem::path(dump) / name).string();
+      };
+      // Images are new files only: one already there (an earlier run's, or an input) is kept.
+      for (std::size_t k = 0; k < points.size(); ++k)
+        if (const std::string path = dumped_path(options.first_index + k);
+            std::filesystem::exists(path))
+          throw basis::FileError(path +
+                                 ": already there; --dump writes only new images (empty "
+                                 "the folder or choose another)");
+      options.on_grid = [&, dumped_path](std::size_t index, const basis::Grid& grid,
+                                         std::span<const basis::DirectionalLight> lights) {
         basis::Grid texels = grid;
         basis::splat_lights(lights, texels);
-        const std::string path = (std::filesystem::path(dump) / name).string();
+        const std::string path = dumped_path(index);
         basis::write_image(path, basis::grid_to_image(texels));
         dumped.add(path);
       };

@@ -313,6 +313,9 @@ void QtFile::verify() {
       fail(name_, "BRDF table entries hold " + std::to_string(trees_.shape().groups) +
                       " groups with bounds for " + std::to_string(trees_.shape().bounded_groups) +
                       " (1, or 3 with bounds for all, expected)");
+    // Entries are texel averages over wi, not exact texels (what captures hold).
+    if (trees_.shape().exact_texels)
+      fail(name_, "BRDF table entries marked as exact texels, which only captures hold");
     if (table->tilt()) {
       tilt_ = verify_tree_set(table->tilt(), "tilt trees", nullptr);
       if (tilt_.size() != trees_.size() || tilt_.shape().groups != 2 ||
@@ -813,6 +816,9 @@ std::vector<std::byte> encode_brdf_table(const BrdfTableView& table, const std::
                                          const ProjectionOptions& projection,
                                          const Provenance& provenance) {
   check_encodable(table.trees);
+  if (table.trees.shape().exact_texels)
+    throw std::invalid_argument(
+        "BRDF table entries marked as exact texels, which only captures hold");
   if (table.trees.size() != std::size_t(table.wo_resolution) * table.wo_resolution)
     throw std::invalid_argument("BRDF table entries do not match its resolution");
   if (table.has_tilt() && table.tilt.size() != table.trees.size())

@@ -864,6 +864,29 @@ TEST(QtFormat, WritesAreAtomic) {
   EXPECT_EQ(dir.entries(), (std::vector<std::string>{"folder.qt", "keep.qt"}));
 }
 
+// Table entries are texel averages: entries marked as exact texels, which lookups cannot fold,
+// are refused when written (and by the reader, with the same words).
+TEST(QtFormat, TableEntriesOfExactTexelsAreRefused) {
+  BrdfTable t;
+  t.wo_resolution = 2;
+  Grid g(8, 1, 1);
+  for (float& v : g.texels)
+    v = 0.25f;
+  const PackedTree entry = pack_exact_texels(project(g, {.tolerance = 0}));
+  ASSERT_TRUE(entry.shape.exact_texels);
+  t.trees = TreeSet(entry.shape);
+  for (int k = 0; k < 4; ++k)
+    t.trees.append(entry.view());
+  try {
+    encode_brdf_table(t.view(), "lambert", "{}", {}, test_provenance());
+    ADD_FAILURE() << "written";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("exact texels, which only captures hold"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 // What capture2qt records reads back as the same recipe: light, scene, capture options, and
 // the projection the trees were cut with.
 TEST(QtRecipe, CaptureParametersReadBackAsTheSameRecipe) {

@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
 
 #include "basis/format/qt_file.h"
 #include "basis/io/image_file.h"
@@ -46,16 +48,24 @@ TEST(Capture2qtCli, SamplesAnObjSceneDeterministicallyAndDumpsTexels) {
   TempDir dir;
   write_room(dir);
   std::filesystem::create_directories(dir.file("dump"));
-  const std::vector<std::string> args = {
-      "--env-constant", "1,1,1", "--scene", "room.obj", "--sample", "6", "--seed", "9",
-      "--res",          "16",    "--quiet", "--dump",   "dump"};
+  std::filesystem::create_directories(dir.file("dump2"));
+  const std::vector<std::string> args = {"--env-constant", "1,1,1", "--scene", "room.obj",
+                                         "--sample",       "6",     "--seed",  "9",
+                                         "--res",          "16",    "--quiet"};
   auto with = [&](std::vector<std::string> extra) {
     std::vector<std::string> all = args;
     all.insert(all.end(), extra.begin(), extra.end());
     return all;
   };
-  ASSERT_EQ(run_tool("capture2qt", with({"-o", "a.qt", "--threads", "1"}), dir.path()).status, 0);
-  ASSERT_EQ(run_tool("capture2qt", with({"-o", "b.qt", "--threads", "2"}), dir.path()).status, 0);
+  // Each run dumps into a folder of its own: --dump writes only new images.
+  ASSERT_EQ(
+      run_tool("capture2qt", with({"-o", "a.qt", "--threads", "1", "--dump", "dump"}), dir.path())
+          .status,
+      0);
+  ASSERT_EQ(
+      run_tool("capture2qt", with({"-o", "b.qt", "--threads", "2", "--dump", "dump2"}), dir.path())
+          .status,
+      0);
   EXPECT_EQ(testing::slurp(dir.file("a.qt")), testing::slurp(dir.file("b.qt")));
   const QtFile f = QtFile::load(dir.file("a.qt"));
   ASSERT_EQ(f.captures().size(), 6u);
@@ -68,6 +78,8 @@ TEST(Capture2qtCli, SamplesAnObjSceneDeterministicallyAndDumpsTexels) {
   const Image dumped = read_image(dir.file("dump/capture_00000.exr"));
   EXPECT_EQ(dumped.width, 16);
   EXPECT_EQ(dumped.height, 16);
+  EXPECT_EQ(read_image(dir.file("dump2/capture_00005.exr")).pixels,
+            read_image(dir.file("dump/capture_00005.exr")).pixels);
 }
 
 TEST(Capture2qtCli, ReadsPointFilesAndCompressesImages) {
@@ -289,6 +301,19 @@ TEST(Capture2qtCli, InterruptLeavesNoOutput) {
   EXPECT_EQ(nowhere.status, 1) << nowhere.err;
   EXPECT_NE(nowhere.err.find("no/such/c.qt"), std::string::npos) << nowhere.err;
   EXPECT_TRUE(std::filesystem::is_empty(dir.file("dump")));
+  // An image already there (an earlier run's, or a map) is neither replaced nor removed.
+  std::ofstream(dir.file("dump/capture_00003.exr")) << "mine";
+  const auto there = run_tool("capture2qt",
+                              {"--env-constant", "1,1,1", "--scene", "room.obj", "--sample", "20",
+                               "--res", "16", "--dump", "dump", "-o", "c.qt"},
+                              dir.path());
+  EXPECT_EQ(there.status, 1) << there.err;
+  EXPECT_NE(there.err.find("capture_00003.exr: already there"), std::string::npos) << there.err;
+  EXPECT_EQ(testing::slurp(dir.file("dump/capture_00003.exr")), "mine");
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.file("dump")),
+                          std::filesystem::directory_iterator()),
+            1);
+  EXPECT_FALSE(std::filesystem::exists(dir.file("c.qt")));
 }
 
 }  // namespace

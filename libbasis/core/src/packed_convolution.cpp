@@ -81,6 +81,9 @@ class WeightedTree {
   double total_weight() const { return total_weight_; }
   // Whether groups are combined: the function may then be negative.
   bool combined() const { return count_ > 1; }
+  // Whether the function may be negative: combined groups, or values in halves (a tree of any
+  // signed grid); only shared-exponent words (captures' radiance) are known to be >= 0.
+  bool may_be_negative() const { return combined() || !tree_.shape().shared_values(); }
 
  private:
   const PackedTreeView& tree_;
@@ -93,7 +96,9 @@ class WeightedTree {
 // averages a + da, b + db (|da|, |db| at most half an ulp):
 //   |integral of AB - area a b| <= area (|integral of (A - a)(B - b)| / area + |a| db + |b| da),
 // the first term at most min(sa sb, [a linf] ea (|b| + db) + |b| da, [b linf] likewise; the
-// largest-deviation terms hold for B >= 0 and A >= 0 respectively), the
+// largest-deviation terms as written hold for B >= 0 and A >= 0 respectively, and add sa sb
+// where that side may be negative, since the mean of |B| is at most |b| plus its RMS deviation),
+// the
 // rounding terms kRoundingPerMagnitude |a b| here and kRoundingFloor (times the value scales)
 // once for the whole descent. For weighted groups |a| is their magnitude (WeightedTree); for
 // shared-exponent values the rounding terms take their rounding shares, and the
@@ -109,12 +114,14 @@ auto packed_pair_bound(const WeightedTree& a, const PackedTreeView& b, double va
     const double da = kHalfRounding * abs_a + floor_a;
     const double db = kHalfRounding * abs_b + kHalfSubnormalRounding * b.scales().value_scale;
     double product = sa * sb;
-    if (linf_a) product = std::min(product, sa * (abs_b + db) + abs_b * da);
-    // eb |a| bounds the integral of A (B - b) for A >= 0; a combination of groups may be
-    // negative, and then eb (|a| + sa) does (the mean of |A| is at most |a| plus A's RMS
-    // deviation from a).
+    const bool b_may_be_negative = !b.shape().shared_values();
+    if (linf_a)
+      product = std::min(product, sa * (abs_b + db + (b_may_be_negative ? sb : 0)) + abs_b * da);
+    // eb |a| bounds the integral of A (B - b) for A >= 0; where A may be negative (combined
+    // groups, halves), eb (|a| + sa) does (the mean of |A| is at most |a| plus A's RMS deviation
+    // from a).
     if (linf_b)
-      product = std::min(product, sb * (abs_a + da + (a.combined() ? sa : 0)) + abs_a * db);
+      product = std::min(product, sb * (abs_a + da + (a.may_be_negative() ? sa : 0)) + abs_a * db);
     return product +
            kRoundingPerMagnitude * a.rounding_share(na, ca, q) * b.rounding_share(nb, 0, cb, q);
   };
@@ -352,16 +359,19 @@ __m128 linf_terms(const DescentConstants<CA, CB>& k, __m128 term, __m128 sa, __m
       _mm_add_ps(_mm_mul_ps(abs_a, ulp), _mm_mul_ps(floor, _mm_set1_ps(k.total_weight)));
   const __m128 db = _mm_add_ps(_mm_mul_ps(abs_b, ulp), floor);
   const __m128 values = _mm_set1_ps(k.values_in_bound_units);
-  if constexpr (kLinfA)
-    term = _mm_min_ps(term, _mm_add_ps(_mm_mul_ps(_mm_mul_ps(sa, _mm_add_ps(abs_b, db)),
-                                                  _mm_set1_ps(k.linf_a_scale)),
-                                       _mm_mul_ps(_mm_mul_ps(abs_b, da), values)));
+  // Where the other side may be negative, each alternative adds sa sb (see packed_pair_bound).
+  if constexpr (kLinfA) {
+    __m128 alternative =
+        _mm_add_ps(_mm_mul_ps(_mm_mul_ps(sa, _mm_add_ps(abs_b, db)), _mm_set1_ps(k.linf_a_scale)),
+                   _mm_mul_ps(_mm_mul_ps(abs_b, da), values));
+    if (!k.shared_b) alternative = _mm_add_ps(alternative, _mm_mul_ps(sb, sa));
+    term = _mm_min_ps(term, alternative);
+  }
   if constexpr (kLinfB) {
     __m128 alternative =
         _mm_add_ps(_mm_mul_ps(_mm_mul_ps(sb, _mm_add_ps(abs_a, da)), _mm_set1_ps(k.linf_b_scale)),
                    _mm_mul_ps(_mm_mul_ps(abs_a, db), values));
-    if (k.combined)  // a combination of groups may be negative (see packed_pair_bound)
-      alternative = _mm_add_ps(alternative, _mm_mul_ps(sb, sa));
+    if (k.combined || !k.shared_a) alternative = _mm_add_ps(alternative, _mm_mul_ps(sb, sa));
     term = _mm_min_ps(term, alternative);
   }
   return term;
@@ -574,17 +584,19 @@ __m512 linf_terms(const DescentConstants<CA, CB>& k, __m512 term, __m512 sa, __m
                                   _mm512_mul_ps(floor, _mm512_set1_ps(k.total_weight)));
   const __m512 db = _mm512_add_ps(_mm512_mul_ps(abs_b, ulp), floor);
   const __m512 values = _mm512_set1_ps(k.values_in_bound_units);
-  if constexpr (kLinfA)
-    term =
-        _mm512_maskz_min_ps(0xffff, term,
-                            _mm512_add_ps(_mm512_mul_ps(_mm512_mul_ps(sa, _mm512_add_ps(abs_b, db)),
-                                                        _mm512_set1_ps(k.linf_a_scale)),
-                                          _mm512_mul_ps(_mm512_mul_ps(abs_b, da), values)));
+  // Where the other side may be negative, each alternative adds sa sb (see packed_pair_bound).
+  if constexpr (kLinfA) {
+    __m512 alternative = _mm512_add_ps(
+        _mm512_mul_ps(_mm512_mul_ps(sa, _mm512_add_ps(abs_b, db)), _mm512_set1_ps(k.linf_a_scale)),
+        _mm512_mul_ps(_mm512_mul_ps(abs_b, da), values));
+    if (!k.shared_b) alternative = _mm512_add_ps(alternative, _mm512_mul_ps(sb, sa));
+    term = _mm512_maskz_min_ps(0xffff, term, alternative);
+  }
   if constexpr (kLinfB) {
     __m512 alternative = _mm512_add_ps(
         _mm512_mul_ps(_mm512_mul_ps(sb, _mm512_add_ps(abs_a, da)), _mm512_set1_ps(k.linf_b_scale)),
         _mm512_mul_ps(_mm512_mul_ps(abs_a, db), values));
-    if (k.combined) alternative = _mm512_add_ps(alternative, _mm512_mul_ps(sb, sa));
+    if (k.combined || !k.shared_a) alternative = _mm512_add_ps(alternative, _mm512_mul_ps(sb, sa));
     term = _mm512_maskz_min_ps(0xffff, term, alternative);
   }
   return term;

@@ -348,6 +348,42 @@ TEST(PackedConvolution, SharedExponentRoundingStaysWithinTheBound) {
   }
 }
 
+// The largest-deviation alternative eb |a| bounds the integral of A (B - b) only for A >= 0.
+// A signed checkerboard (mean 0, RMS 1) against 1 + 0.5 of it (largest deviation 0.5), each a
+// single leaf: their product's integral is 0.5 where the leaves give 0, and the bound must
+// cover it (it gave 4e-7), whichever side comes first, in grey and in RGB, on every path.
+TEST(PackedConvolution, LargestDeviationsAgainstASignedFunctionKeepTheirBound) {
+  const int n = 16;
+  for (const int channels : {1, 3}) {
+    Grid signed_grid(n, channels), positive(n, channels);
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x)
+        for (int c = 0; c < channels; ++c) {
+          const float sign = (x + y) % 2 ? 1.0f : -1.0f;
+          signed_grid.at(0, c, x, y) = sign;
+          positive.at(0, c, x, y) = 1.0f + 0.5f * sign;
+        }
+    // Tolerances that leave each tree a single leaf.
+    const PackedTree a =
+        pack(project(signed_grid, {.tolerance = 10, .mode = ProjectionOptions::Mode::absolute}),
+             BoundKind::l2);
+    const PackedTree b =
+        pack(project(positive, {.tolerance = 10, .mode = ProjectionOptions::Mode::absolute}),
+             BoundKind::linf);
+    ASSERT_EQ(a.node_count(), 1);
+    ASSERT_EQ(b.node_count(), 1);
+    for (const bool swapped : {false, true}) {
+      const PackedTreeView first = swapped ? b.view() : a.view();
+      const PackedTreeView second = swapped ? a.view() : b.view();
+      for (const Convolution& r : {convolve(first, second), convolve_scalar(first, second)})
+        for (int c = 0; c < channels; ++c) {
+          EXPECT_NEAR(r.value[c], 0.0, 1e-6);
+          EXPECT_GE(r.bound[c], 0.5) << "channels " << channels << " swapped " << swapped;
+        }
+    }
+  }
+}
+
 // An accuracy target stops on the bound: asking for one without the bound is an error, on
 // every path.
 TEST(PackedConvolution, AnAccuracyTargetNeedsTheBound) {

@@ -107,7 +107,9 @@ inline CertifiedFloat certified_float(double value, double bound) {
 //   area * min(sa sb, [a linf] ea |b|, [b linf] eb |a|),
 // sa, sb the quadrants' RMS bounds (both kinds bound the RMS deviation; Cauchy-Schwarz bounds
 // the integral of (A - a)(B - b) by their product), ea, eb their largest-deviation bounds
-// (valid for non-negative functions). Channel counts equal or one of them 1.
+// (for a non-negative other side: ea |b| needs B >= 0, which only a capture's shared-exponent
+// words are known to be; against halves, which may hold a signed grid, the alternative adds
+// sa sb). Channel counts equal or one of them 1.
 Convolution convolve(const PackedTreeView& a, const PackedTreeView& b,
                      const ConvolutionOptions& options = {});
 
