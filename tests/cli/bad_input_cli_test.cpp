@@ -187,6 +187,20 @@ TEST(BadInputMatrix, CaptureInputs) {
       {{"--env-constant", "1e39,1,1", "--at", "0,0,0", "-o", "out.qt"}, 2, "--env-constant 1e39"});
   check(dir, "capture2qt",
         {{"--env", "one_pixel.exr", "--at", "0,0,0", "-o", "out.qt"}, 1, "one_pixel.exr: "});
+  // Radiance that a float holds, whose product with itself does not: an error naming the
+  // capture (it printed inf with a finite bound, exit 0), in the trees' product and the dense one.
+  ASSERT_EQ(run_tool("capture2qt",
+                     {"--env-constant", "1.1e19,1.1e19,1.1e19", "--at", "0,0,0", "--res", "8", "-o",
+                      "bright.qt", "-q"},
+                     dir.path())
+                .status,
+            0);
+  for (const std::vector<std::string> extra : {std::vector<std::string>{}, {"--dense"}}) {
+    std::vector<std::string> args = {"bright.qt", "bright.qt", "--csv"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    check(dir, "qtconvolve", {args, 1, "bright.qt: capture 0: the convolution's value"});
+  }
+  std::filesystem::remove(dir.file("bright.qt"));
   check(dir, "capture2qt",
         {{"--env-constant", "1,1,1", "--scene", "bright.obj", "--at", "0.2,0.2,0", "-o", "out.qt"},
          1,

@@ -1,6 +1,7 @@
 #include "basis/lighting/shading.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
 #include <optional>
@@ -36,6 +37,14 @@ template <typename TableF>
 void add_lights(std::span<const DirectionalLight> lights, const std::optional<Frame>& record,
                 const std::optional<Frame>& shading, const Vec3& wo, const Brdf* light_brdf,
                 Convolution& result, const TableF& table_f) {
+  if (lights.empty()) return;
+  // Summed in double and rounded once, so that a sum beyond the floats is an error
+  // (certified_float) rather than an infinite value, and the bound covers the rounding.
+  std::array<double, 3> value{}, bound{};
+  for (int c = 0; c < 3; ++c) {
+    value[c] = result.value[c];
+    bound[c] = result.bound[c];
+  }
   for (const DirectionalLight& light : lights) {
     Vec3 wi = light.direction;
     if (shading) wi = shading->to_local(record->to_world(wi));
@@ -46,9 +55,14 @@ void add_lights(std::span<const DirectionalLight> lights, const std::optional<Fr
     else
       table_f(wi, f, error);
     for (int c = 0; c < 3; ++c) {
-      result.value[c] += float(f[c] * light.energy[c] * wi.z());
-      result.bound[c] += float(error[c] * light.energy[c] * wi.z());
+      value[c] += f[c] * light.energy[c] * wi.z();
+      bound[c] += error[c] * light.energy[c] * wi.z();
     }
+  }
+  for (int c = 0; c < 3; ++c) {
+    const CertifiedFloat sum = certified_float(value[c], bound[c]);
+    result.value[c] = sum.value;
+    result.bound[c] = sum.bound;
   }
 }
 
@@ -172,13 +186,25 @@ Convolution capture_product(const CaptureSetView& a, const CaptureSetView& b, st
   // A set of one capture stands for every point.
   const std::size_t ka = a.trees.size() == 1 ? 0 : k, kb = b.trees.size() == 1 ? 0 : k;
   const PackedTreeView ta = a.trees.tree(ka), tb = b.trees.tree(kb);
-  Convolution result = convolve(ta, tb, options);
+  const Convolution product = convolve(ta, tb, options);
+  // Summed in double and rounded once at the end (certified_float): a product beyond the floats
+  // is an error, not an infinite value.
+  std::array<double, 3> value{}, bound{};
   for (int c = 0; c < 3; ++c) {
-    result.value[c] *= float(std::numbers::pi);
-    result.bound[c] *= float(std::numbers::pi);
+    value[c] = double(product.value[c]) * std::numbers::pi;
+    bound[c] = double(product.bound[c]) * std::numbers::pi;
   }
+  const auto finish = [&] {
+    Convolution result;
+    for (int c = 0; c < 3; ++c) {
+      const CertifiedFloat sum = certified_float(value[c], bound[c]);
+      result.value[c] = sum.value;
+      result.bound[c] = sum.bound;
+    }
+    return result;
+  };
   const auto la = a.lights_of(ka), lb = b.lights_of(kb);
-  if (la.empty() && lb.empty()) return result;
+  if (la.empty() && lb.empty()) return finish();
   const int n = ta.shape().resolution;
   if (tb.shape().resolution != n)
     throw std::invalid_argument("captures with directional lights multiply at one resolution");
@@ -204,9 +230,9 @@ Convolution capture_product(const CaptureSetView& a, const CaptureSetView& b, st
       const LeafQuadrant leaf = find_leaf(tree, (s.x + 0.5) / n, (s.y + 0.5) / n);
       for (int c = 0; c < 3; ++c) {
         const int channel = std::min(c, tree.shape().channels - 1);
-        result.value[c] += float(s.weight[c] * tree.value(leaf.node, 0, channel, leaf.quadrant));
-        result.bound[c] += float(s.weight[c] * tree.largest_deviation_bound(
-                                                   leaf.node, channel, leaf.quadrant, leaf.level));
+        value[c] += s.weight[c] * tree.value(leaf.node, 0, channel, leaf.quadrant);
+        bound[c] += s.weight[c] *
+                    tree.largest_deviation_bound(leaf.node, channel, leaf.quadrant, leaf.level);
       }
     }
   };
@@ -216,8 +242,8 @@ Convolution capture_product(const CaptureSetView& a, const CaptureSetView& b, st
     for (const Splat& q : sb)
       if (p.x == q.x && p.y == q.y)
         for (int c = 0; c < 3; ++c)
-          result.value[c] += float(p.weight[c] * q.weight[c] * double(n) * n / std::numbers::pi);
-  return result;
+          value[c] += p.weight[c] * q.weight[c] * double(n) * n / std::numbers::pi;
+  return finish();
 }
 
 }  // namespace basis
