@@ -359,7 +359,7 @@ int main(int argc, char** argv) {
     if (recipe.shard)
       basis::write_shard_file(output, bytes);
     else
-      basis::write_qt(output, bytes);
+      basis::write_unsharded_file(output, bytes);
     dumped.keep();
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -19,14 +19,23 @@ bool same_shape(const PackedShape& a, const PackedShape& b) {
          a.bounded_groups == b.bounded_groups && a.bounds == b.bounds;
 }
 
-}  // namespace
-
-void write_shard_file(const std::string& path, std::span<const std::byte> encoded) {
+void remove_checksum_file(const std::string& path) {
   std::error_code ec;
   std::filesystem::remove(checksum_path(path), ec);
   if (ec) throw FileError(checksum_path(path) + ": cannot remove: " + ec.message());
+}
+
+}  // namespace
+
+void write_shard_file(const std::string& path, std::span<const std::byte> encoded) {
+  remove_checksum_file(path);
   write_qt(path, encoded);
   write_checksum_file(path, checksum_hex(encoded));
+}
+
+void write_unsharded_file(const std::string& path, std::span<const std::byte> encoded) {
+  remove_checksum_file(path);
+  write_qt(path, encoded);
 }
 
 ShardFile open_shard_file(const std::string& path) {

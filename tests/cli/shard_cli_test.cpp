@@ -289,6 +289,23 @@ TEST(ShardCli, AShardKilledOrInterruptedLeavesNothing) {
   }
 }
 
+// A file written without --shard over a shard's takes its checksum away: the checksum
+// would not be its own (xxh128sum -c reported it FAILED).
+TEST(ShardCli, AnUnshardedOutputOverAShardLeavesNoChecksum) {
+  TempDir dir;
+  std::vector<std::string> args = light();
+  for (const std::string& a :
+       {std::string("--scene"), kScene, std::string("--sample"), std::string("2"),
+        std::string("--res"), std::string("8"), std::string("-q")})
+    args.push_back(a);
+  ASSERT_EQ(run_tool("capture2qt", with(args, {"--shard", "0/1", "-o", "c.qt"}), dir.path()).status,
+            0);
+  ASSERT_TRUE(std::filesystem::exists(dir.file("c.qt.xxh128")));
+  ASSERT_EQ(run_tool("capture2qt", with(args, {"--seed", "7", "-o", "c.qt"}), dir.path()).status,
+            0);
+  EXPECT_EQ(dir.entries(), (std::vector<std::string>{"c.qt"}));
+}
+
 TEST(ShardCli, QtinfoAddsUpTheShards) {
   TempDir dir;
   capture_shards(dir, sample(19), 2);

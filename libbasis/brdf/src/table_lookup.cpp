@@ -32,7 +32,7 @@ Convolution convolve_tap(const BrdfTableView& table, const TableTap& tap,
 // In double, then to floats whose bound still holds (certified_float).
 template <typename Entry>
 Convolution interpolate(const std::array<TableTap, 4>& taps, Entry entry) {
-  double value[3] = {}, bound[3] = {};
+  std::array<double, 3> value{}, bound{};
   for (const TableTap& tap : taps) {
     if (!tap.reads_anything()) continue;
     const Convolution c = entry(tap);
@@ -41,13 +41,7 @@ Convolution interpolate(const std::array<TableTap, 4>& taps, Entry entry) {
       bound[ch] += std::numbers::pi * c.bound[ch];
     }
   }
-  Convolution result;
-  for (int ch = 0; ch < 3; ++ch) {
-    const CertifiedFloat f = certified_float(value[ch], bound[ch]);
-    result.value[ch] = f.value;
-    result.bound[ch] = f.bound;
-  }
-  return result;
+  return certified_convolution(value, bound);
 }
 
 }  // namespace

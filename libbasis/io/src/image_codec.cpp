@@ -29,7 +29,9 @@ std::string read(const std::string& path, long long max_pixels, int& width, int&
            " pixels exceeds the limit of " + std::to_string(max_pixels) + " pixels";
   width = spec.width;
   height = spec.height;
-  channels = spec.nchannels;
+  // The first four channels at most (grey, RGB and alpha): readers use no more, and a header
+  // that lists a hundred would otherwise ask memory for all of them.
+  channels = std::min(spec.nchannels, 4);
   pixels.assign(std::size_t(width) * std::size_t(height) * std::size_t(channels), 0.0f);
   if (!input->read_image(0, 0, 0, channels, OIIO::TypeDesc::FLOAT, pixels.data()))
     return one_line(input->geterror());

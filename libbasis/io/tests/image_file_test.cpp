@@ -48,6 +48,22 @@ TEST(ImageFile, TheImageLibraryLoadsOnTheFirstImageAndWhatIsWrittenReadsBack) {
   EXPECT_EQ(dir.entries(), (std::vector<std::string>{"small.exr", "small.png"}));
 }
 
+// Only the first four channels are read (readers use grey, RGB and alpha): a file of many
+// channels reads as its first four, where it asked memory for all of them.
+TEST(ImageFile, ManyChannelsReadAsTheirFirstFour) {
+  testing::TempDir dir;
+  Image image(4, 2, 7);
+  for (std::size_t i = 0; i < image.pixels.size(); ++i)
+    image.pixels[i] = float(i);
+  write_image(dir.file("seven.exr"), image);
+  const Image read = read_image(dir.file("seven.exr"));
+  ASSERT_EQ(read.channels, 4);
+  for (int y = 0; y < 2; ++y)
+    for (int x = 0; x < 4; ++x)
+      for (int c = 0; c < 4; ++c)
+        EXPECT_EQ(read.at(x, y, c), image.at(x, y, c)) << x << " " << y << " " << c;
+}
+
 // Images written together (a render's EXR and PNG) go through a symbolic link to a file: the
 // file is replaced, the link kept, and no temporary is left in either folder.
 TEST(ImageFile, WrittenTogetherThroughSymbolicLinks) {

@@ -59,11 +59,7 @@ void add_lights(std::span<const DirectionalLight> lights, const std::optional<Fr
       bound[c] += error[c] * light.energy[c] * wi.z();
     }
   }
-  for (int c = 0; c < 3; ++c) {
-    const CertifiedFloat sum = certified_float(value[c], bound[c]);
-    result.value[c] = sum.value;
-    result.bound[c] = sum.bound;
-  }
+  result = certified_convolution(value, bound);
 }
 
 // Adds capture k's directional lights to a lookup's result (see shade) towards the unit wo: f
@@ -194,17 +190,8 @@ Convolution capture_product(const CaptureSetView& a, const CaptureSetView& b, st
     value[c] = double(product.value[c]) * std::numbers::pi;
     bound[c] = double(product.bound[c]) * std::numbers::pi;
   }
-  const auto finish = [&] {
-    Convolution result;
-    for (int c = 0; c < 3; ++c) {
-      const CertifiedFloat sum = certified_float(value[c], bound[c]);
-      result.value[c] = sum.value;
-      result.bound[c] = sum.bound;
-    }
-    return result;
-  };
   const auto la = a.lights_of(ka), lb = b.lights_of(kb);
-  if (la.empty() && lb.empty()) return finish();
+  if (la.empty() && lb.empty()) return certified_convolution(value, bound);
   const int n = ta.shape().resolution;
   if (tb.shape().resolution != n)
     throw std::invalid_argument("captures with directional lights multiply at one resolution");
@@ -243,7 +230,7 @@ Convolution capture_product(const CaptureSetView& a, const CaptureSetView& b, st
       if (p.x == q.x && p.y == q.y)
         for (int c = 0; c < 3; ++c)
           value[c] += p.weight[c] * q.weight[c] * double(n) * n / std::numbers::pi;
-  return finish();
+  return certified_convolution(value, bound);
 }
 
 }  // namespace basis

@@ -68,7 +68,9 @@ std::vector<Rgb> reference_lookups(const QtFile& table_file, const QtFile& captu
   }();
   const CaptureRecipe recipe = capture_recipe(captures_file);
   if (recipe.options.resolution != table.trees.shape().resolution)
-    throw std::invalid_argument("a reference needs the table and the captures at one resolution (" +
+    throw std::invalid_argument(table_file.name() + " and " + captures_file.name() +
+                                ": a reference needs the table and the captures at one "
+                                "resolution (" +
                                 std::to_string(table.trees.shape().resolution) + " and " +
                                 std::to_string(recipe.options.resolution) + ")");
   const CaptureInputs inputs = [&] {

@@ -18,6 +18,10 @@ namespace basis {
 // checksum that is not its own: a shard killed at any moment has either no file or no checksum.
 void write_shard_file(const std::string& path, std::span<const std::byte> encoded);
 
+// Writes an encoded file that is not a shard atomically, first removing a checksum file an
+// earlier shard left at PATH.xxh128, which would no longer be its own.
+void write_unsharded_file(const std::string& path, std::span<const std::byte> encoded);
+
 // A shard file loaded and checked.
 struct ShardFile {
   QtFile file;

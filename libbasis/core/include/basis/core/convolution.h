@@ -101,6 +101,18 @@ inline CertifiedFloat certified_float(double value, double bound) {
   return out;
 }
 
+// A result whose channels were summed in double, each made a CertifiedFloat.
+inline Convolution certified_convolution(const std::array<double, 3>& value,
+                                         const std::array<double, 3>& bound) {
+  Convolution out;
+  for (int c = 0; c < 3; ++c) {
+    const CertifiedFloat f = certified_float(value[c], bound[c]);
+    out.value[c] = f.value;
+    out.bound[c] = f.bound;
+  }
+  return out;
+}
+
 // The integral over [0,1]^2 of a * b (group 0 of both), as convolve() does for float trees, on
 // packed trees. Results beyond the floats throw std::overflow_error (certified_float). The bound
 // adds, on every quadrant where the descent stops,
