@@ -155,6 +155,13 @@ int main(int argc, char** argv) {
     basis::cli::check_output_place(output);
 
     const basis::SceneFile file = basis::read_scene_file(scene_path);
+    // The files the scene names (its map, meshes and materials) are inputs too.
+    std::vector<basis::cli::NamedPath> named = {{scene_path, file.environment.map}};
+    for (const basis::SceneFile::MeshSpec& mesh : file.meshes) {
+      named.push_back({scene_path, mesh.obj});
+      named.push_back({scene_path, mesh.material});
+    }
+    basis::cli::check_outputs_spare_inputs({{"-o", output}, {"its PNG", png}}, named);
     basis::Image reference;
     if (!compare.empty()) {
       reference = basis::read_image(compare);

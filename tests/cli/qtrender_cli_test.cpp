@@ -87,6 +87,46 @@ TEST(QtrenderCli, RendersAnExrAndAPngAndReportsTimesAsJson) {
   EXPECT_EQ(testing::slurp(dir.file("again1.png")), testing::slurp(dir.file("again2.png")));
 }
 
+// The files a scene names are inputs: an output onto one is bad usage (-o onto its material
+// replaced it with the render), and a table of someone else's where a spec's table would be
+// cached is kept (it was replaced by the cache).
+TEST(QtrenderCli, TheFilesASceneNamesAreKept) {
+  TempDir dir;
+  write_text(dir.file("m.json"), R"({"model": "lambert", "albedo": 0.5,
+    "table": {"wo_res": 3, "wi_res": 8}})");
+  write_text(dir.file("s.json"), scene_text(kCamera, "m.json"));
+  Image sky(16, 8, 3);
+  for (float& p : sky.pixels)
+    p = 1;
+  write_image(dir.file("env.exr"), sky);
+  const std::string map = testing::slurp(dir.file("env.exr"));
+  write_text(dir.file("lit.json"), R"({"camera": )" + kCamera + R"(,
+  "environment": {"map": ")" + dir.file("env.exr") +
+                                       R"("},
+  "meshes": [{"obj": ")" + std::string(BASIS_SOURCE_DIR) +
+                                       R"(/data/scene.obj", "material": "m.json"}]})");
+  const auto onto = run_tool("qtrender", {dir.file("lit.json"), "--method", "mc", "--spp", "1",
+                                          "-o", dir.file("env.exr")});
+  EXPECT_EQ(onto.status, 2) << onto.err;
+  EXPECT_NE(onto.err.find("is the file " + dir.file("lit.json") + " reads"), std::string::npos)
+      << onto.err;
+  EXPECT_EQ(testing::slurp(dir.file("env.exr")), map);
+  // A table brdf2qt made, of another spec, under the cache's name.
+  write_text(dir.file("other.json"), R"({"model": "lambert", "albedo": 0.25})");
+  ASSERT_EQ(run_tool("brdf2qt",
+                     {"other.json", "--wo-res", "3", "--wi-res", "8", "-q", "-o", "m.table.qt"},
+                     dir.path())
+                .status,
+            0);
+  const std::string table = testing::slurp(dir.file("m.table.qt"));
+  const auto cached =
+      run_tool("qtrender", {dir.file("s.json"), "--max-spacing", "4", "-o", dir.file("c.exr")});
+  ASSERT_EQ(cached.status, 0) << cached.err;
+  EXPECT_EQ(testing::slurp(dir.file("m.table.qt")), table);
+  EXPECT_NE(cached.err.find("a file qtrender did not write, left as it is"), std::string::npos)
+      << cached.err;
+}
+
 TEST(QtrenderCli, BadScenesGetOneLineAndNoImage) {
   TempDir dir;
   write_text(dir.file("m.json"), R"({"model": "lambert", "albedo": 0.5})");

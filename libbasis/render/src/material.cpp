@@ -30,6 +30,18 @@ std::shared_ptr<const QtFile> valid_cache(const std::string& cache, const BrdfSp
   }
 }
 
+// Whether a file at the cache's path may be replaced: none is there, or one that this tool
+// wrote (a table of another spec or options). A file of anyone else's, or one that does not
+// load, is left as it is.
+bool replaceable_cache(const std::string& cache) {
+  if (!std::filesystem::exists(cache)) return true;
+  try {
+    return QtFile::load(cache).provenance().tool == "qtrender";
+  } catch (const FileError&) {
+    return false;
+  }
+}
+
 }  // namespace
 
 Material load_material(const std::string& path, bool with_table, const TaskControl& control,
@@ -55,11 +67,15 @@ Material load_material(const std::string& path, bool with_table, const TaskContr
   const auto bytes = encode_brdf_table(table.view(), spec.model, spec.text, options.projection,
                                        {"qtrender", kVersion, table_parameters(options), {path}});
   MaterialReport r{true, false, {}};
-  try {
-    write_qt(cache, bytes);
-    r.cache_written = true;
-  } catch (const FileError& e) {
-    r.cache_problem = e.what();
+  if (!replaceable_cache(cache)) {
+    r.cache_problem = cache + ": a file qtrender did not write, left as it is";
+  } else {
+    try {
+      write_qt(cache, bytes);
+      r.cache_written = true;
+    } catch (const FileError& e) {
+      r.cache_problem = e.what();
+    }
   }
   if (report) *report = r;
   material.table = std::make_shared<QtFile>(QtFile::from_bytes(bytes, path + " (tabulated)"));

@@ -38,7 +38,8 @@ struct MaterialReport {
 
 // Loads a material. With `with_table`, a spec's table is read from its cache when the cache
 // holds this spec tabulated with these options (table_options), else tabulated (progress and
-// cancellation through `control`) and written there atomically when the folder allows. Throws
+// cancellation through `control`) and written there atomically when the folder allows and no
+// file is there that qtrender did not write (a user's table of that name is kept). Throws
 // FileError naming the file for a spec or table that does not load.
 Material load_material(const std::string& path, bool with_table, const TaskControl& control = {},
                        MaterialReport* report = nullptr);
