@@ -84,7 +84,7 @@ capture=$(submit capture "%x-%A_%a.log" --array="0-$((shards - 1))$throttle" --c
 merge_args=(--cpus-per-task="$merge_cpus")
 [ -n "$merge_time" ] && merge_args+=(--time="$merge_time")
 merge=$(submit merge "%x-%j.log" --dependency=afterok:"$capture" "${merge_args[@]}" \
-  "$here/merge.sbatch" "$out" $join)
+  "$here/merge.sbatch" "$out" "$shards" $join)
 echo "$capture"
 echo "$merge"
 if [ -n "$table" ]; then
