@@ -263,6 +263,9 @@ TEST(MergeCaptureSets, RefusesWhatOneFileCannotHoldBeforeAssemblingIt) {
   // The bound covers the real size, and a limit under it is refused in one line naming the output.
   const std::uint64_t bound = merged_size_bound(sets, provenance);
   EXPECT_GE(bound, merged.size());
+  // And by no more than its allowance for the file's tables: it counted trees as they lie in
+  // memory, a quarter more than files hold, and refused joins of sets one file holds.
+  EXPECT_LE(bound, merged.size() + (64 << 10) + 512);
   expect_file_error([&] { merge_capture_sets(sets, provenance, "all.qt", bound - 1); },
                     "all.qt: the 3 files hold up to");
   // What was joined: the shards' captures in order, each tree word for word.
