@@ -273,9 +273,10 @@ int arena_threads(int threads) {
   return threads > 0 ? threads : tbb::task_arena::automatic;
 }
 
-// Runs work(control) on a thread of its own while this one, without the GIL, looks for signals
-// every 50 ms. On one (Ctrl-C), the control asks the work to stop, and the exception the signal's
-// handler raised (KeyboardInterrupt) is raised once it has. Needs the GIL.
+// Runs work(control) on a thread of its own (without the GIL: it must not touch Python objects)
+// while this one looks for signals every 50 ms. On one (Ctrl-C), the control asks the work to stop,
+// and the exception the signal's handler raised (KeyboardInterrupt) is raised once it has. Needs
+// the GIL.
 template <class Work>
 auto run_interruptible(Work&& work) -> decltype(work(std::declval<const TaskControl&>())) {
   using Result = decltype(work(std::declval<const TaskControl&>()));
@@ -288,13 +289,19 @@ auto run_interruptible(Work&& work) -> decltype(work(std::declval<const TaskCont
   {
     py::gil_scoped_release release;
     std::thread worker(std::move(task));
-    while (done.wait_for(std::chrono::milliseconds(50)) != std::future_status::ready) {
-      if (signal) continue;
-      py::gil_scoped_acquire acquire;
-      if (PyErr_CheckSignals() != 0) {
-        signal.emplace();  // takes the handler's exception
-        cancel = true;
+    try {
+      while (done.wait_for(std::chrono::milliseconds(50)) != std::future_status::ready) {
+        if (signal) continue;
+        py::gil_scoped_acquire acquire;
+        if (PyErr_CheckSignals() != 0) {
+          signal.emplace();  // takes the handler's exception
+          cancel = true;
+        }
       }
+    } catch (...) {  // the work is stopped and waited for, whatever failed here
+      cancel = true;
+      worker.join();
+      throw;
     }
     worker.join();
   }

@@ -58,12 +58,30 @@ std::string read_text(const std::string& path) {
   return text.str();
 }
 
+// The folder a file lies in as the file system resolves it (symbolic links, ".."): where a
+// manifest written through a link to a file elsewhere lands, and names its shards from.
+std::filesystem::path resolved_folder(const std::filesystem::path& file) {
+  std::error_code error;
+  const std::filesystem::path resolved =
+      std::filesystem::weakly_canonical(std::filesystem::absolute(file, error), error);
+  return error ? file.parent_path() : resolved.parent_path();
+}
+
 }  // namespace
 
 std::string CaptureManifest::shard_path(std::size_t k) const {
   const std::filesystem::path file(shards.at(k).file);
   if (file.is_absolute()) return file.string();
-  return (std::filesystem::path(path).parent_path() / file).string();
+  // Named from the folder the manifest lies in, resolved; as spelt from the manifest's path
+  // when that leads to the same file (so that messages keep the user's spelling).
+  const std::filesystem::path given = std::filesystem::path(path).parent_path() / file;
+  const std::filesystem::path resolved = resolved_folder(path) / file;
+  std::error_code error;
+  const std::filesystem::path given_resolved =
+      std::filesystem::weakly_canonical(std::filesystem::absolute(given, error), error);
+  if (!error && given_resolved == std::filesystem::weakly_canonical(resolved, error) && !error)
+    return given.string();
+  return resolved.string();
 }
 
 PointRange CaptureManifest::shard_points(std::size_t k) const {
@@ -147,12 +165,13 @@ CaptureManifest make_manifest(const std::vector<ShardFile>& shards,
   manifest.path = manifest_path;
   manifest.total_points = shards.front().recipe.shard->total_points;
   manifest.run_parameters = shards.front().run_parameters;
-  // Both as the file system resolves them (symbolic links, "..") before one is named from the
-  // other: a name relative to an unresolved folder can lead elsewhere.
-  const std::filesystem::path folder =
-      std::filesystem::weakly_canonical(std::filesystem::absolute(manifest_path)).parent_path();
+  // Both folders as the file system resolves them (symbolic links, "..") before one is named from
+  // the other: a name relative to an unresolved folder can lead elsewhere. A shard keeps its own
+  // name (a link to a shard is listed as the link).
+  const std::filesystem::path folder = resolved_folder(manifest_path);
   for (const ShardFile& s : shards) {
-    const std::filesystem::path file = std::filesystem::weakly_canonical(s.file.name());
+    const std::filesystem::path name(s.file.name());
+    const std::filesystem::path file = resolved_folder(name) / name.filename();
     const std::string listed = file.lexically_relative(folder).string();
     std::error_code error;
     if (listed.empty() || !std::filesystem::equivalent(folder / listed, s.file.name(), error))

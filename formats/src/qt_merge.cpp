@@ -21,7 +21,7 @@ std::uint64_t merged_size_bound(std::span<const QtFile* const> sets, const Prove
   for (const QtFile* set : sets) {
     const CaptureSetView c = set->captures();
     // The trees as files store them (without the values loading restores), which is how the
-    // joined file stores them too; their size in memory is a quarter more.
+    // joined file stores them too; their size in memory is about 30 % more.
     bytes += set->stored_tree_bytes() + 16;
     bytes += c.size() * (3 * sizeof(Vec3) + sizeof(std::uint32_t)) + 16;
     bytes += c.lights.size_bytes() + 16;

@@ -109,12 +109,12 @@ CaptureRecipe capture_recipe(const QtFile& captures) {
   r.projection = captures.projection();
   try {
     r.options.resolution = j.at("res").get<int>();
-    const int spp = j.at("spp").get<int>();
+    const long long spp = j.at("spp").get<long long>();
     if (spp < 1 || spp > 4096)
       throw FileError(captures.name() + ": its provenance records " + std::to_string(spp) +
                       " samples per texel, where captures take 1 to 4096");
     r.options.strata = 1;
-    while (r.options.strata * r.options.strata < spp)
+    while (static_cast<long long>(r.options.strata) * r.options.strata < spp)
       ++r.options.strata;
     r.options.seed = j.at("seed").get<std::uint64_t>();
     r.options.ray_offset = j.at("ray_offset").get<double>();

@@ -929,7 +929,7 @@ TEST(QtRecipe, CaptureParametersReadBackAsTheSameRecipe) {
 TEST(QtRecipe, SampleCountsNoCaptureTakesAreRefused) {
   CaptureRecipe r;
   r.environment = "sky.exr";
-  for (const long long spp : {2147483647LL, 4097LL, 0LL, -4LL}) {
+  for (const long long spp : {2147483647LL, 4294967297LL, 4097LL, 0LL, -4LL}) {
     nlohmann::json parameters = nlohmann::json::parse(capture_parameters(r));
     parameters["spp"] = spp;
     const auto bytes = encode_capture_set(sample_captures(1).view(), r.projection,

@@ -199,11 +199,16 @@ TEST(Manifests, NameTheirShardsFromTheFolderTheyLandIn) {
   order_shards_of_one_run(shards);
   std::filesystem::create_directory(dir.file("a"));
   std::filesystem::create_directory(dir.file("other"));
-  std::filesystem::create_directory_symlink(dir.file("other"), dir.file("link"));
-  for (const std::string manifest : {"a/../other/up.qtm", "link/linked.qtm"}) {
+  std::filesystem::create_directories(dir.file("deep/er/other"));
+  std::filesystem::create_directory_symlink(dir.file("deep/er/other"), dir.file("link"));
+  // A link one level down to a folder three levels down: "../s.0.qt" from the link's folder
+  // would lead to deep/er/s.0.qt.
+  for (const auto& [manifest, listed] :
+       {std::pair<std::string, std::string>{"a/../other/up.qtm", "../s.0.qt"},
+        {"link/linked.qtm", "../../../s.0.qt"}}) {
     write_manifest(make_manifest(shards, dir.file(manifest)));
     const CaptureManifest m = read_manifest(dir.file(manifest));
-    EXPECT_EQ(m.shards[0].file, "../s.0.qt") << manifest;
+    EXPECT_EQ(m.shards[0].file, listed) << manifest;
     for (std::size_t k = 0; k < 2; ++k)
       EXPECT_EQ(open_manifest_shard(m, k).captures().size(), m.shards[k].points) << manifest;
   }

@@ -423,7 +423,10 @@ def run_and_interrupt(code, tmp_path):
     1.5 s later sends it SIGINT, and returns its exit status and stderr. The long calls below
     would take minutes: an interrupt that waited for them would outlast the 60 s allowed."""
     script = tmp_path / "long_call.py"
-    script.write_text("import sys\nimport numpy as np\nimport basis\n" + code)
+    # Python installs its KeyboardInterrupt handler only where SIGINT is not ignored, and a
+    # process started in the background of a script inherits it ignored: installed here.
+    script.write_text("import signal\nsignal.signal(signal.SIGINT, signal.default_int_handler)\n"
+                      "import numpy as np\nimport basis\n" + code)
     process = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE,
                                stderr=subprocess.PIPE, text=True, cwd=SOURCE)
     try:

@@ -26,13 +26,13 @@ std::shared_ptr<const QtFile> valid_cache(const std::string& cache, const BrdfSp
       return nullptr;
     return file;
   } catch (const FileError&) {
-    return nullptr;  // unreadable or altered: tabulated again and replaced
+    return nullptr;  // unreadable or altered: tabulated again (replaceable_cache decides)
   }
 }
 
 // Whether a file at the cache's path may be replaced: none is there, or one that this tool
 // wrote (a table of another spec or options). A file of anyone else's, or one that does not
-// load, is left as it is.
+// load (whose maker cannot be told), is left as it is.
 bool replaceable_cache(const std::string& cache) {
   if (!std::filesystem::exists(cache)) return true;
   try {
@@ -68,7 +68,8 @@ Material load_material(const std::string& path, bool with_table, const TaskContr
                                        {"qtrender", kVersion, table_parameters(options), {path}});
   MaterialReport r{true, false, {}};
   if (!replaceable_cache(cache)) {
-    r.cache_problem = cache + ": a file qtrender did not write, left as it is";
+    r.cache_problem =
+        cache + ": a file qtrender did not write, or that does not load, left as it is";
   } else {
     try {
       write_qt(cache, bytes);
