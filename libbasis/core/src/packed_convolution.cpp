@@ -96,8 +96,9 @@ class WeightedTree {
 // averages a + da, b + db (|da|, |db| at most half an ulp):
 //   |integral of AB - area a b| <= area (|integral of (A - a)(B - b)| / area + |a| db + |b| da),
 // the first term at most min(sa sb, [a linf] ea (|b| + db) + |b| da, [b linf] likewise; the
-// largest-deviation terms as written hold for B >= 0 and A >= 0 respectively, and add sa sb
-// where that side may be negative, since the mean of |B| is at most |b| plus its RMS deviation),
+// largest-deviation terms hold for B >= 0 and A >= 0 respectively: where that side may be
+// negative they would add sa sb, the mean of |B| being at most |b| plus its RMS deviation, and
+// never be smaller than sa sb, so they are taken only where it is known to be >= 0),
 // the
 // rounding terms kRoundingPerMagnitude |a b| here and kRoundingFloor (times the value scales)
 // once for the whole descent. For weighted groups |a| is their magnitude (WeightedTree); for
@@ -114,14 +115,11 @@ auto packed_pair_bound(const WeightedTree& a, const PackedTreeView& b, double va
     const double da = kHalfRounding * abs_a + floor_a;
     const double db = kHalfRounding * abs_b + kHalfSubnormalRounding * b.scales().value_scale;
     double product = sa * sb;
-    const bool b_may_be_negative = !b.shape().shared_values();
-    if (linf_a)
-      product = std::min(product, sa * (abs_b + db + (b_may_be_negative ? sb : 0)) + abs_b * da);
-    // eb |a| bounds the integral of A (B - b) for A >= 0; where A may be negative (combined
-    // groups, halves), eb (|a| + sa) does (the mean of |A| is at most |a| plus A's RMS deviation
-    // from a).
-    if (linf_b)
-      product = std::min(product, sb * (abs_a + da + (a.may_be_negative() ? sa : 0)) + abs_a * db);
+    // Each alternative only where the other side is known to be >= 0: elsewhere it would add
+    // sa sb, and could not be smaller than the product term.
+    if (linf_a && b.shape().shared_values())
+      product = std::min(product, sa * (abs_b + db) + abs_b * da);
+    if (linf_b && !a.may_be_negative()) product = std::min(product, sb * (abs_a + da) + abs_a * db);
     return product +
            kRoundingPerMagnitude * a.rounding_share(na, ca, q) * b.rounding_share(nb, 0, cb, q);
   };
@@ -359,21 +357,17 @@ __m128 linf_terms(const DescentConstants<CA, CB>& k, __m128 term, __m128 sa, __m
       _mm_add_ps(_mm_mul_ps(abs_a, ulp), _mm_mul_ps(floor, _mm_set1_ps(k.total_weight)));
   const __m128 db = _mm_add_ps(_mm_mul_ps(abs_b, ulp), floor);
   const __m128 values = _mm_set1_ps(k.values_in_bound_units);
-  // Where the other side may be negative, each alternative adds sa sb (see packed_pair_bound).
-  if constexpr (kLinfA) {
-    __m128 alternative =
-        _mm_add_ps(_mm_mul_ps(_mm_mul_ps(sa, _mm_add_ps(abs_b, db)), _mm_set1_ps(k.linf_a_scale)),
-                   _mm_mul_ps(_mm_mul_ps(abs_b, da), values));
-    if (!k.shared_b) alternative = _mm_add_ps(alternative, _mm_mul_ps(sb, sa));
-    term = _mm_min_ps(term, alternative);
-  }
-  if constexpr (kLinfB) {
-    __m128 alternative =
-        _mm_add_ps(_mm_mul_ps(_mm_mul_ps(sb, _mm_add_ps(abs_a, da)), _mm_set1_ps(k.linf_b_scale)),
-                   _mm_mul_ps(_mm_mul_ps(abs_a, db), values));
-    if (k.combined || !k.shared_a) alternative = _mm_add_ps(alternative, _mm_mul_ps(sb, sa));
-    term = _mm_min_ps(term, alternative);
-  }
+  // Each alternative only where the other side is known to be >= 0 (see packed_pair_bound).
+  if constexpr (kLinfA)
+    if (k.shared_b)
+      term = _mm_min_ps(term, _mm_add_ps(_mm_mul_ps(_mm_mul_ps(sa, _mm_add_ps(abs_b, db)),
+                                                    _mm_set1_ps(k.linf_a_scale)),
+                                         _mm_mul_ps(_mm_mul_ps(abs_b, da), values)));
+  if constexpr (kLinfB)
+    if (!k.combined && k.shared_a)
+      term = _mm_min_ps(term, _mm_add_ps(_mm_mul_ps(_mm_mul_ps(sb, _mm_add_ps(abs_a, da)),
+                                                    _mm_set1_ps(k.linf_b_scale)),
+                                         _mm_mul_ps(_mm_mul_ps(abs_a, db), values)));
   return term;
 }
 
@@ -584,21 +578,21 @@ __m512 linf_terms(const DescentConstants<CA, CB>& k, __m512 term, __m512 sa, __m
                                   _mm512_mul_ps(floor, _mm512_set1_ps(k.total_weight)));
   const __m512 db = _mm512_add_ps(_mm512_mul_ps(abs_b, ulp), floor);
   const __m512 values = _mm512_set1_ps(k.values_in_bound_units);
-  // Where the other side may be negative, each alternative adds sa sb (see packed_pair_bound).
-  if constexpr (kLinfA) {
-    __m512 alternative = _mm512_add_ps(
-        _mm512_mul_ps(_mm512_mul_ps(sa, _mm512_add_ps(abs_b, db)), _mm512_set1_ps(k.linf_a_scale)),
-        _mm512_mul_ps(_mm512_mul_ps(abs_b, da), values));
-    if (!k.shared_b) alternative = _mm512_add_ps(alternative, _mm512_mul_ps(sb, sa));
-    term = _mm512_maskz_min_ps(0xffff, term, alternative);
-  }
-  if constexpr (kLinfB) {
-    __m512 alternative = _mm512_add_ps(
-        _mm512_mul_ps(_mm512_mul_ps(sb, _mm512_add_ps(abs_a, da)), _mm512_set1_ps(k.linf_b_scale)),
-        _mm512_mul_ps(_mm512_mul_ps(abs_a, db), values));
-    if (k.combined || !k.shared_a) alternative = _mm512_add_ps(alternative, _mm512_mul_ps(sb, sa));
-    term = _mm512_maskz_min_ps(0xffff, term, alternative);
-  }
+  // Each alternative only where the other side is known to be >= 0 (see packed_pair_bound).
+  if constexpr (kLinfA)
+    if (k.shared_b)
+      term = _mm512_maskz_min_ps(
+          0xffff, term,
+          _mm512_add_ps(_mm512_mul_ps(_mm512_mul_ps(sa, _mm512_add_ps(abs_b, db)),
+                                      _mm512_set1_ps(k.linf_a_scale)),
+                        _mm512_mul_ps(_mm512_mul_ps(abs_b, da), values)));
+  if constexpr (kLinfB)
+    if (!k.combined && k.shared_a)
+      term = _mm512_maskz_min_ps(
+          0xffff, term,
+          _mm512_add_ps(_mm512_mul_ps(_mm512_mul_ps(sb, _mm512_add_ps(abs_a, da)),
+                                      _mm512_set1_ps(k.linf_b_scale)),
+                        _mm512_mul_ps(_mm512_mul_ps(abs_a, db), values)));
   return term;
 }
 
