@@ -462,6 +462,7 @@ TreeSetView QtFile::restore_elided_trees(const PackedShape& shape,
     std::uint64_t words_read = 0;
   };
   std::vector<Outcome> outcomes(count);
+  std::vector<float> derived_roundings(count, 1.0f);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 16), [&](const auto& range) {
     PackedTree read;
     std::vector<double> scratch;
@@ -487,6 +488,7 @@ TreeSetView QtFile::restore_elided_trees(const PackedShape& shape,
         if (out.tree_problem = link_problem(read.view(), depth); !out.tree_problem.empty())
           continue;
         derive_refined_values(read, DerivedBoundRange::refuse, scratch);
+        derived_roundings[i] = read.derived_rounding;
       } catch (const std::invalid_argument& error) {
         out.tree_problem = error.what();
         continue;
@@ -524,7 +526,8 @@ TreeSetView QtFile::restore_elided_trees(const PackedShape& shape,
   restored_words_.push_back(std::move(memory));
   const std::vector<TreeExtent>& kept =
       converted_extents_.emplace_back(std::move(restored_extents));
-  return TreeSetView(shape, kept, restored);
+  return TreeSetView(shape, kept, restored,
+                     derived_roundings_.emplace_back(std::move(derived_roundings)));
 }
 
 TreeSetView QtFile::verify_packed_trees(const void* set_pointer, const std::string& what,
@@ -727,7 +730,8 @@ flatbuffers::Offset<fb::TreeSet> build_tree_set(flatbuffers::FlatBufferBuilder& 
       PackedTree current{s,
                          tree.scales(),
                          {tree.words().begin(), tree.words().end()},
-                         std::size_t(tree.texel_start())};
+                         std::size_t(tree.texel_start()),
+                         tree.derived_rounding()};
       derive_refined_values(current);
       const std::vector<std::uint32_t> words = elide_refined_values(current.view());
       elided_extents.push_back({std::uint32_t(elided_words.size()),

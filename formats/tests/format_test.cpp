@@ -718,6 +718,8 @@ TEST(QtFormat, CaptureSetsLeaveOutRefinedValuesAndGetThemBack) {
     EXPECT_TRUE(same_words(file.captures().trees.tree(i).words(), view.trees.tree(i).words()));
     EXPECT_EQ(convolve(light.view(), file.captures().trees.tree(i)).value,
               convolve(light.view(), view.trees.tree(i)).value);
+    EXPECT_EQ(file.captures().trees.tree(i).derived_rounding(),
+              view.trees.tree(i).derived_rounding());
   }
   EXPECT_EQ(encode_capture_set(file.captures(), {}, test_provenance()), bytes);
   // A version 6 set re-written: its refined nodes' values re-derived, within their bounds.
@@ -756,6 +758,39 @@ TEST(QtFormat, CaptureSetsLeaveOutRefinedValuesAndGetThemBack) {
   small.scales.bound_scale *= 0x1p-12f;
   EXPECT_NE(load_error(elided_file(tree, small, elided)).find("a derived bound exceeds"),
             std::string::npos);
+}
+
+// Values restored on loading are derived from their children's (refined_values.h). From a
+// capture whose texels' roundings all go one way, the restored tree keeps the rounding its
+// derived values need, and the loaded capture against a constant holds the texels' product
+// within its bound.
+TEST(QtFormat, RestoredValuesKeepTheirBoundWhenEveryRoundingGoesOneWay) {
+  const int n = 16;
+  const Grid grid = testing::one_way_rounding_grid(n);
+  const PackedTree tree = pack_exact_texels(project(grid, {.tolerance = 0}));
+  CaptureSet captures = exact_captures(1);
+  captures.trees = TreeSet(tree.shape);
+  captures.trees.append(tree.view());
+  const QtFile file =
+      QtFile::from_bytes(encode_capture_set(captures.view(), {}, test_provenance()), "one_way.qt");
+  EXPECT_FALSE(file.zero_copy());
+  const PackedTreeView loaded = file.captures().trees.tree(0);
+  EXPECT_TRUE(same_words(loaded.words(), tree.words));
+  EXPECT_EQ(loaded.derived_rounding(), tree.derived_rounding);
+  EXPECT_GT(loaded.derived_rounding(), 1.0f);
+  Grid grey(n, 1);
+  for (float& t : grey.texels)
+    t = 1;
+  const PackedTree constant = pack(project(grey, {.tolerance = 0.05}));
+  const Convolution r = convolve(constant.view(), loaded);
+  for (int c = 0; c < 3; ++c) {
+    double exact = 0;
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x)
+        exact += grid.at(0, c, x, y);
+    exact /= n * n;
+    EXPECT_LE(std::abs(double(r.value[c]) - exact), double(r.bound[c])) << c;
+  }
 }
 
 // Loading checks and restores the trees of a set in parallel: many trees come back word for word

@@ -195,7 +195,7 @@ TEST(BadInputMatrix, CaptureInputs) {
                      dir.path())
                 .status,
             0);
-  for (const std::vector<std::string> extra : {std::vector<std::string>{}, {"--dense"}}) {
+  for (const std::vector<std::string>& extra : {std::vector<std::string>{}, {"--dense"}}) {
     std::vector<std::string> args = {"bright.qt", "bright.qt", "--csv"};
     args.insert(args.end(), extra.begin(), extra.end());
     check(dir, "qtconvolve", {args, 1, "bright.qt: capture 0: the convolution's value"});

@@ -79,4 +79,26 @@ inline Grid three_groups(const Grid& base, unsigned seed) {
   return g;
 }
 
+// An RGB grid of n^2 texels whose roundings to shared-exponent words all go one way, so that
+// means taken from rounded values drift from the texels' as far as they can. Values lie in
+// [256, 512) (words of step 1). Each texel is a word plus 0.499 (it rounds down); each quadrant
+// of 2 x 2 texels or more holds children of words k, k, k and k + 2 (k even), whose mean k + 0.5
+// rounds down to k (ties go to even), at every level.
+inline Grid one_way_rounding_grid(int n) {
+  Grid g(n, 3);
+  auto fill = [&](auto&& self, int x, int y, int size, int k) -> void {
+    if (size == 1) {
+      for (int c = 0; c < 3; ++c)
+        g.at(0, c, x, y) = float(k + 20 * c) + 0.499f;
+      return;
+    }
+    const int half = size / 2;
+    for (int q = 0; q < 4; ++q)
+      self(self, x + (q & 1) * half, y + (q >> 1) * half, half, q == 3 ? k + 2 : k);
+  };
+  for (int q = 0; q < 4; ++q)
+    fill(fill, (q & 1) * n / 2, (q >> 1) * n / 2, n / 2, 300 + 20 * q);
+  return g;
+}
+
 }  // namespace basis::testing

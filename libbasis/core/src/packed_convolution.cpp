@@ -215,6 +215,15 @@ inline __m128 shared_channel(__m128i words, int c, __m128 steps) {
 // share.
 constexpr float kSharedStepMagnitude = float(0.5 / kHalfRounding);
 
+// What the steps of the shared-exponent words of the node at w are multiplied by for their
+// rounding magnitude: derived_step in a derived node (its four quadrants refined: its link's
+// mask full), kSharedStepMagnitude elsewhere (texel nodes, kTexel, have no link).
+template <bool kTexel>
+inline float step_magnitude(const std::uint32_t* w, float derived_step) {
+  if constexpr (kTexel) return kSharedStepMagnitude;
+  return (w[0] & 15u) == 15u ? derived_step : kSharedStepMagnitude;
+}
+
 inline float lane_sum(__m128 v) {
   const __m128 pairs = _mm_add_ps(v, _mm_movehl_ps(v, v));
   return _mm_cvtss_f32(_mm_add_ss(pairs, _mm_shuffle_ps(pairs, pairs, 1)));
@@ -244,6 +253,9 @@ struct DescentConstants {
   // factor that brings a texel word's step to its bound, half the step, in bound units.
   bool shared_a, shared_b;
   float shared_bound_a, shared_bound_b;
+  // What a derived node's word steps are multiplied by for their rounding magnitude:
+  // kSharedStepMagnitude times the tree's derived_rounding (PackedTreeView).
+  float derived_step_a, derived_step_b;
   // In double: two trees' scales multiply beyond the floats' range (2^-252 to 2^235).
   double value_scale, bound_scale;
   float values_in_bound_units, linf_a_scale, linf_b_scale;
@@ -285,6 +297,8 @@ struct DescentConstants {
         shared_b(CB == 3 && tb.shape().shared_values()),
         shared_bound_a(texel_bound_a * 0.5f),
         shared_bound_b(texel_bound_b * 0.5f),
+        derived_step_a(kSharedStepMagnitude * ta.derived_rounding()),
+        derived_step_b(kSharedStepMagnitude * tb.derived_rounding()),
         targeted(accuracy > 0) {
     if (!weights.empty()) {
       combined = weights.size() > 1;
@@ -425,14 +439,17 @@ struct NarrowPairs {
     __m128 value, magnitude, share, rounding_units, bound;
   };
   // Channel c of the node at w (a texel node with kTexel), from its shared-exponent words and
-  // their steps (loaded once per node) when shared, else from its halves.
+  // their steps (loaded once per node) when shared, else from its halves. derived_step: the
+  // steps' factor in a derived node (DescentConstants).
   template <bool kTexel>
   static Side one_channel(const std::uint32_t* w, int c, bool shared, __m128i words, __m128 steps,
-                          std::size_t codes, float texel_bound, float shared_bound) {
+                          std::size_t codes, float texel_bound, float shared_bound,
+                          float derived_step) {
     Side s;
     if (shared) {
       s.value = shared_channel(words, c, steps);
-      const __m128 step_share = _mm_mul_ps(steps, _mm_set1_ps(kSharedStepMagnitude));
+      const __m128 step_share =
+          _mm_mul_ps(steps, _mm_set1_ps(step_magnitude<kTexel>(w, derived_step)));
       s.magnitude = _mm_max_ps(s.value, step_share);
       s.share = _mm_mul_ps(_mm_add_ps(s.value, step_share), _mm_set1_ps(0.5f));
       s.rounding_units = step_share;
@@ -495,7 +512,7 @@ struct NarrowPairs {
         stopping_bound = load_bound_codes(wa + k.codes_a + CA + ca);
       } else if constexpr (GW == 1) {
         a = one_channel<kTexelA>(wa, ca, shared_a, words_a, steps_a, k.codes_a, k.texel_bound_a,
-                                 k.shared_bound_a);
+                                 k.shared_bound_a, k.derived_step_a);
       } else {
         a.value = a.magnitude = a.bound = _mm_setzero_ps();
         for (int g = 0; g < GW; ++g) {
@@ -511,8 +528,9 @@ struct NarrowPairs {
         if constexpr (kTexelA) a.bound = texel_bounds(a.magnitude, k.total_weight, k.texel_bound_a);
         a.share = a.magnitude;
       }
-      const Side b = one_channel<kTexelB>(wb, CB == 1 ? 0 : c, shared_b, words_b, steps_b,
-                                          k.codes_b, k.texel_bound_b, k.shared_bound_b);
+      const Side b =
+          one_channel<kTexelB>(wb, CB == 1 ? 0 : c, shared_b, words_b, steps_b, k.codes_b,
+                               k.texel_bound_b, k.shared_bound_b, k.derived_step_b);
       vb[c] = b.value;
       product[c] = _mm_mul_ps(a.value, b.value);
       if constexpr (kFolded)
@@ -682,13 +700,14 @@ struct WidePairs {
   // shared, else from its halves.
   template <bool kTexel>
   static Side one_group(const std::uint32_t* w, int channels, bool shared, std::size_t codes,
-                        float texel_bound, float shared_bound) {
+                        float texel_bound, float shared_bound, float derived_step) {
     const std::uint32_t* values_at = w + (kTexel ? 0 : 1);
     Side s;
     if (shared) {
       __m512 steps;
       s.value = shared_values(values_at, steps);
-      const __m512 step_share = _mm512_mul_ps(steps, _mm512_set1_ps(kSharedStepMagnitude));
+      const __m512 step_share =
+          _mm512_mul_ps(steps, _mm512_set1_ps(step_magnitude<kTexel>(w, derived_step)));
       s.magnitude = _mm512_maskz_max_ps(0xffff, s.value, step_share);
       s.share = _mm512_mul_ps(_mm512_add_ps(s.value, step_share), _mm512_set1_ps(0.5f));
       s.rounding_units = step_share;
@@ -722,7 +741,7 @@ struct WidePairs {
       stopping_bound = bounds(wa, CA, k.codes_a + CA);
     } else if constexpr (GW == 1) {
       a = one_group<kTexelA>(wa, CA, CA == 3 && k.shared_a, k.codes_a, k.texel_bound_a,
-                             k.shared_bound_a);
+                             k.shared_bound_a, k.derived_step_a);
     } else {
       a.value = a.magnitude = a.bound = _mm512_setzero_ps();
       for (int g = 0; g < GW; ++g) {
@@ -737,7 +756,7 @@ struct WidePairs {
       a.share = a.magnitude;
     }
     const Side b = one_group<kTexelB>(wb, CB, kSharedWordsB || (CB == 3 && k.shared_b), k.codes_b,
-                                      k.texel_bound_b, k.shared_bound_b);
+                                      k.texel_bound_b, k.shared_bound_b, k.derived_step_b);
     const __m512 product = _mm512_mul_ps(a.value, b.value);
     __m512 magnitude;
     if constexpr (kFolded) {  // see NarrowPairs::folded_magnitude

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <span>
 #include <stdexcept>
 #include <string>
 
@@ -14,9 +15,23 @@ namespace {
 constexpr std::uint32_t kAllQuadrants = 15;
 constexpr std::size_t kBoundsPerNode = 3 * 4;  // channels x quadrants of a shared-value node
 
-// One pass over the tree, children before parents. Returns whether every derived bound fits the
-// tree's bound scale (a bound that does not gets code 255, which does not hold).
-bool derive_pass(PackedTree& tree, std::vector<double>& offsets) {
+// Per channel and quadrant of each derived node, what the pass knows of the mean M of its
+// texels: an estimate, a bound on |M - estimate|, and a bound on |M - value| (the offset).
+struct Means {
+  std::span<double> estimate, estimate_error, offset;
+};
+
+Means means_in(std::vector<double>& scratch, std::size_t nodes) {
+  const std::size_t size = nodes * kBoundsPerNode;
+  scratch.assign(3 * size, 0);
+  const std::span<double> all(scratch);
+  return {all.subspan(0, size), all.subspan(size, size), all.subspan(2 * size, size)};
+}
+
+// One pass over the tree, children before parents; sets the tree's derived_rounding. Returns
+// whether every derived bound fits the tree's bound scale (a bound that does not gets code 255,
+// which does not hold).
+bool derive_pass(PackedTree& tree, std::vector<double>& scratch) {
   const PackedShape& shape = tree.shape;
   const std::size_t texel_start = tree.texel_start;
   const std::size_t count = std::size_t(tree.node_count());
@@ -26,10 +41,12 @@ bool derive_pass(PackedTree& tree, std::vector<double>& offsets) {
   auto code_value = [&](std::uint8_t code) {
     return double(bound_code_value(code) * tree.scales.bound_scale);
   };
+  auto half_step = [&](std::uint32_t word) {
+    return 0.5 * double(shared_exponent_step(word)) * value_scale;
+  };
   const double largest_codable = code_value(255);
-  // Bounds on |mean of a quadrant's texels - its value|, per channel and quadrant of the
-  // derived nodes (negative for the others).
-  offsets.assign(texel_start * kBoundsPerNode, -1);
+  const Means means = means_in(scratch, texel_start);
+  double largest_offset = 1;  // in half steps of the derived word
   bool fits = true;
   for (std::size_t n = texel_start; n-- > 0;) {
     std::uint32_t* node = tree.words.data() + n * full_words;
@@ -48,43 +65,56 @@ bool derive_pass(PackedTree& tree, std::vector<double>& offsets) {
       const std::uint32_t* child_values = texel ? child : child + 1;
       const auto* child_codes =
           texel ? nullptr : reinterpret_cast<const std::uint8_t*>(child_values + 4);
-      std::array<std::array<double, 4>, 3> v{};
-      std::array<double, 3> mean{};
+      const bool derived_child = !texel && (child[0] & kAllQuadrants) == kAllQuadrants;
+      // Per channel and child quadrant i: its value v, bound s, a bound e on |M_i - v_i|, the
+      // estimate of M_i and a bound on that estimate's error. A value the file stores (a
+      // texel's, or a node's that is not derived) is within half its word's step of M_i, as
+      // every descent takes it.
+      std::array<std::array<double, 4>, 3> v{}, s{}, e{}, estimate{}, estimate_error{};
+      std::array<double, 3> mean{}, mean_error{};
       std::array<float, 3> scaled_mean{};
       for (int c = 0; c < 3; ++c) {
         for (std::size_t i = 0; i < 4; ++i) {
           v[c][i] = double(shared_exponent_channel(child_values[i], c)) * value_scale;
-          mean[c] += v[c][i];
+          const double rounding = half_step(child_values[i]);
+          const std::size_t at = std::size_t(c) * 4 + i;
+          if (texel) {  // as PackedTreeView::bound: half the word's step
+            s[c][i] = rounding * (1 + 0x1p-20);
+            e[c][i] = rounding;
+          } else {
+            s[c][i] = code_value(child_codes[at]);
+            const double offset = derived_child ? means.offset[k * kBoundsPerNode + at] : rounding;
+            e[c][i] = std::min(s[c][i], offset);
+          }
+          estimate[c][i] = derived_child ? means.estimate[k * kBoundsPerNode + at] : v[c][i];
+          estimate_error[c][i] =
+              derived_child ? means.estimate_error[k * kBoundsPerNode + at] : rounding;
+          mean[c] += estimate[c][i];
+          mean_error[c] += estimate_error[c][i];
         }
         mean[c] /= 4;
+        // The mean's own rounding in double arithmetic, padded.
+        mean_error[c] = (mean_error[c] / 4 + 0x1p-50 * mean[c]) * (1 + 0x1p-40);
         // Below 2^15, which words cannot hold: texels just under it may round up to it (the
         // bound is taken from the word's value, so it still holds).
         scaled_mean[c] = std::min(float(mean[c] / value_scale), std::nextafter(0x1p15f, 0.0f));
       }
       const std::uint32_t word = encode_shared_exponent(scaled_mean);
       node[1 + q] = word;
+      const double rounding = half_step(word);
       for (int c = 0; c < 3; ++c) {
         const double value = double(shared_exponent_channel(word, c)) * value_scale;
-        double squares = 0, largest = 0, offset = 0;
+        double squares = 0, largest = 0;
         for (std::size_t i = 0; i < 4; ++i) {
-          double s, e;
-          if (texel) {  // as PackedTreeView::bound: half the word's step
-            e = 0.5 * double(shared_exponent_step(child_values[i])) * value_scale;
-            s = e * (1 + 0x1p-20);
-          } else {
-            const std::size_t at = std::size_t(c) * 4 + i;
-            s = code_value(child_codes[at]);
-            const double derived = offsets[k * kBoundsPerNode + at];
-            e = derived >= 0 ? std::min(s, derived) : s;
-          }
           const double d = std::abs(v[c][i] - value);
-          squares += s * s + d * d + 2 * d * e;
-          largest = std::max(largest, s + d);
-          offset += e / 4;
+          squares += s[c][i] * s[c][i] + d * d + 2 * d * e[c][i];
+          largest = std::max(largest, s[c][i] + d);
         }
-        // The mean's own rounding in double arithmetic, and the bound's, padded.
-        offsets[n * kBoundsPerNode + std::size_t(c) * 4 + q] =
-            (offset + std::abs(mean[c] - value) + 0x1p-48 * mean[c]) * (1 + 0x1p-40);
+        const std::size_t at = n * kBoundsPerNode + std::size_t(c) * 4 + q;
+        means.estimate[at] = mean[c];
+        means.estimate_error[at] = mean_error[c];
+        means.offset[at] = (mean_error[c] + std::abs(mean[c] - value)) * (1 + 0x1p-40);
+        largest_offset = std::max(largest_offset, means.offset[at] / rounding);
         const double bound =
             (shape.bounds == BoundKind::l2 ? std::sqrt(squares / 4) : largest) * (1 + 0x1p-40);
         if (bound > largest_codable) fits = false;
@@ -92,6 +122,8 @@ bool derive_pass(PackedTree& tree, std::vector<double>& offsets) {
       }
     }
   }
+  // Rounded up: a float within 2^-24 of the padded ratio.
+  tree.derived_rounding = float(largest_offset * (1 + 0x1p-20));
   return fits;
 }
 

@@ -10,6 +10,7 @@ TreeSet::TreeSet(PackedShape shape, std::vector<TreeExtent> extents,
     : shape_(shape), extents_(std::move(extents)), words_(std::move(words)) {
   for (const TreeExtent& e : extents_)
     total_nodes_ += e.node_count;
+  derived_roundings_.assign(extents_.size(), 1.0f);
 }
 
 void TreeSet::append(const PackedTreeView& tree) {
@@ -21,6 +22,7 @@ void TreeSet::append(const PackedTreeView& tree) {
   extents_.push_back({std::uint32_t(words_.size()), std::uint32_t(tree.node_count()),
                       std::uint32_t(tree.texel_start()), tree.scales()});
   words_.insert(words_.end(), tree.words().begin(), tree.words().end());
+  derived_roundings_.push_back(tree.derived_rounding());
   total_nodes_ += std::size_t(tree.node_count());
 }
 

@@ -142,6 +142,8 @@ class QtFile {
   std::vector<std::unique_ptr<std::uint32_t[], FreeWords>> restored_words_;
   // Extents of versions 3 and 4, converted, and of version 7's restored sets.
   std::vector<std::vector<TreeExtent>> converted_extents_;
+  // Restored trees' PackedTreeView::derived_rounding, one vector per restored set.
+  std::vector<std::vector<float>> derived_roundings_;
   int wo_resolution_ = 0;
   CaptureSetView captures_;
 };

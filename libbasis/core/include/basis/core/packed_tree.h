@@ -123,11 +123,13 @@ class PackedTreeView {
   // A tree of full nodes only (texel_start = their count).
   PackedTreeView(PackedShape shape, TreeScales scales, std::span<const std::uint32_t> words)
       : PackedTreeView(shape, scales, words, words.size() / std::size_t(shape.words_per_node())) {}
+  // derived_rounding: see derived_rounding().
   PackedTreeView(PackedShape shape, TreeScales scales, std::span<const std::uint32_t> words,
-                 std::size_t texel_start)
+                 std::size_t texel_start, float derived_rounding = 1)
       : shape_(shape),
         scales_(scales),
         words_(words),
+        derived_rounding_(derived_rounding),
         texel_start_(int(texel_start)),
         node_count_(
             int(texel_start + (words.size() - packed_node_offset(shape, texel_start, texel_start)) /
@@ -140,6 +142,11 @@ class PackedTreeView {
   // Nodes [texel_start(), node_count()) are texel nodes of values alone.
   int texel_start() const { return texel_start_; }
   bool is_texel_node(int n) const { return n >= texel_start_; }
+  // How far a derived value (refined_values.h: a node whose four quadrants are refined, in a
+  // tree of shared-exponent values) may lie from its quadrant's mean, in units of half its
+  // word's step: at least 1. Every other value lies within half its step.
+  float derived_rounding() const { return derived_rounding_; }
+  bool is_derived_node(int n) const { return shape_.shared_values() && (link(n) & 15u) == 15u; }
   const std::uint32_t* node(int n) const {
     return words_.data() + packed_node_offset(shape_, std::size_t(texel_start_), std::size_t(n));
   }
@@ -163,12 +170,13 @@ class PackedTreeView {
              scales_.value_scale;
     return half_to_float(halves(n)[(g * shape_.channels + c) * 4 + q]) * scales_.value_scale;
   }
-  // How far value(n, g, c, q) may lie from what it rounds: half an ulp of its half (plus half
-  // the subnormal spacing), or half its shared-exponent word's step; times the value scale.
+  // How far value(n, g, c, q) may lie from the mean of its quadrant's texels: half an ulp of
+  // its half (plus half the subnormal spacing), or half its shared-exponent word's step (times
+  // derived_rounding() for a derived node); times the value scale.
   double rounding(int n, int g, int c, int q) const {
     if (shape_.shared_values())
       return 0.5 * double(shared_exponent_step(node(n)[(is_texel_node(n) ? 0 : 1) + q])) *
-             double(scales_.value_scale);
+             double(scales_.value_scale) * (is_derived_node(n) ? double(derived_rounding_) : 1.0);
     return kHalfRounding * std::abs(double(value(n, g, c, q))) +
            kHalfSubnormalRounding * double(scales_.value_scale);
   }
@@ -212,6 +220,7 @@ class PackedTreeView {
   PackedShape shape_;
   TreeScales scales_;
   std::span<const std::uint32_t> words_;
+  float derived_rounding_ = 1;
   int texel_start_ = 0, node_count_ = 0;
 };
 
@@ -221,8 +230,10 @@ struct PackedTree {
   TreeScales scales;
   std::vector<std::uint32_t> words;
   std::size_t texel_start = 0;  // its first texel node (its node count when there are none)
+  // PackedTreeView::derived_rounding (set by derive_refined_values).
+  float derived_rounding = 1;
 
-  PackedTreeView view() const { return {shape, scales, words, texel_start}; }
+  PackedTreeView view() const { return {shape, scales, words, texel_start, derived_rounding}; }
   int node_count() const { return view().node_count(); }
 };
 

@@ -1,9 +1,9 @@
 // Values that a node's children determine. In a tree with shared-exponent values (a capture's),
 // a node whose four quadrants are all refined has values and bounds that follow from its
-// children's: each quadrant's value is the mean of its child's four values, rounded to a word,
-// and its bound follows from the child's values and bounds. Such trees are made with those
-// derived values, so files can leave them out (the node's link alone, format version 7) and
-// readers restore exactly the tree that was written.
+// children's: each quadrant's value is the mean of what lies below it, rounded to a word, and
+// its bound follows from the child's values and bounds. Such trees are made with those derived
+// values, so files can leave them out (the node's link alone, format version 7) and readers
+// restore exactly the tree that was written.
 #pragma once
 
 #include <cstddef>
@@ -26,16 +26,22 @@ enum class DerivedBoundRange { rescale, refuse };
 
 // Sets the values and bound codes of every node whose four quadrants are refined, children
 // before parents, to what its child over each quadrant determines (per channel, v_i the child's
-// four values, s_i their bounds, e_i a bound on |mean of quadrant i's texels - v_i|):
-//   value: mean of v_i, rounded to the nearest shared-exponent word (v);
+// four values, s_i their bounds, e_i a bound on |M_i - v_i|, M_i the mean of quadrant i's
+// texels):
+//   value: the estimate of the mean, rounded to the nearest shared-exponent word (v). The
+//     estimate is the mean of the children's estimates (a derived child's, unrounded; any other
+//     value's, itself), so that roundings do not add up from level to level: its error is at
+//     most the mean of the half steps of the stored values below it;
 //   l2 bound: sqrt(mean of s_i^2 + d_i^2 + 2 |d_i| e_i), d_i = v_i - v, the RMS deviation of the
 //     texels from v (the mean square splits over the children into their variances and the
 //     squares of their means' offsets);
 //   linf bound: largest s_i + |d_i|.
-// e_i is half a texel's step for texels, min(s_i, the derived e) for derived nodes, s_i for
-// other nodes. Does nothing to trees without derived values. Throws std::invalid_argument for a
-// tree whose links do not lead to later nodes, whose values cannot be rounded to words, or, with
-// `refuse`, whose derived bounds its scale cannot code.
+// e_i is half a texel's step for texels, and min(s_i, how far the value may lie from M_i) for
+// other nodes: half its word's step for a stored value, the estimate's error plus its rounding
+// for a derived one. Sets tree.derived_rounding to the largest of the latter over the derived
+// values, in their half steps (at least 1). Does nothing to trees without derived values.
+// Throws std::invalid_argument for a tree whose links do not lead to later nodes, whose values
+// cannot be rounded to words, or, with `refuse`, whose derived bounds its scale cannot code.
 void derive_refined_values(PackedTree& tree, DerivedBoundRange range = DerivedBoundRange::rescale);
 // The same, with working memory reused from call to call (for sets of many trees).
 void derive_refined_values(PackedTree& tree, DerivedBoundRange range, std::vector<double>& scratch);

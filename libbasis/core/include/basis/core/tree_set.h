@@ -25,17 +25,23 @@ struct TreeExtent {
   }
 };
 
-// A non-owning view of a tree set.
+// A non-owning view of a tree set. Trees with derived values (refined_values.h) have their
+// PackedTreeView::derived_rounding beside their extents (none: 1 for every tree).
 class TreeSetView {
  public:
   TreeSetView() = default;
   TreeSetView(PackedShape shape, std::span<const TreeExtent> extents,
-              std::span<const std::uint32_t> words, std::size_t total_nodes)
-      : shape_(shape), extents_(extents), words_(words), total_nodes_(total_nodes) {}
+              std::span<const std::uint32_t> words, std::size_t total_nodes,
+              std::span<const float> derived_roundings = {})
+      : shape_(shape),
+        extents_(extents),
+        words_(words),
+        derived_roundings_(derived_roundings),
+        total_nodes_(total_nodes) {}
   // The set of those extents (their node counts summed).
   TreeSetView(PackedShape shape, std::span<const TreeExtent> extents,
-              std::span<const std::uint32_t> words)
-      : TreeSetView(shape, extents, words, 0) {
+              std::span<const std::uint32_t> words, std::span<const float> derived_roundings = {})
+      : TreeSetView(shape, extents, words, 0, derived_roundings) {
     for (const TreeExtent& e : extents)
       total_nodes_ += e.node_count;
   }
@@ -44,15 +50,19 @@ class TreeSetView {
   std::size_t size() const { return extents_.size(); }
   PackedTreeView tree(std::size_t i) const {
     const TreeExtent& e = extents_[i];
-    return {shape_, e.scales, words_.subspan(e.first_word, e.word_count(shape_)), e.texel_start};
+    return {shape_, e.scales, words_.subspan(e.first_word, e.word_count(shape_)), e.texel_start,
+            derived_roundings_.empty() ? 1.0f : derived_roundings_[i]};
   }
   // Trees [first, first + count) of the set, over the same nodes (whose total_nodes() and
   // bytes() still count all of them).
   TreeSetView slice(std::size_t first, std::size_t count) const {
-    return {shape_, extents_.subspan(first, count), words_, total_nodes_};
+    return {
+        shape_, extents_.subspan(first, count), words_, total_nodes_,
+        derived_roundings_.empty() ? derived_roundings_ : derived_roundings_.subspan(first, count)};
   }
   std::span<const TreeExtent> extents() const { return extents_; }
   std::span<const std::uint32_t> words() const { return words_; }
+  std::span<const float> derived_roundings() const { return derived_roundings_; }
   // Nodes of every tree (of the whole set, for a slice).
   std::size_t total_nodes() const { return total_nodes_; }
   std::size_t bytes() const { return words_.size_bytes() + extents_.size_bytes(); }
@@ -61,6 +71,7 @@ class TreeSetView {
   PackedShape shape_;
   std::span<const TreeExtent> extents_;
   std::span<const std::uint32_t> words_;
+  std::span<const float> derived_roundings_;
   std::size_t total_nodes_ = 0;
 };
 
@@ -70,7 +81,7 @@ class TreeSet {
   TreeSet() = default;
   explicit TreeSet(PackedShape shape) : shape_(shape) {}
   // The trees laid out by `extents` in `words`, taken as they are (for a reader that has checked
-  // them).
+  // them), their derived values within half their steps (derived_rounding 1).
   TreeSet(PackedShape shape, std::vector<TreeExtent> extents, std::vector<std::uint32_t> words);
 
   // Appends a packed tree of the set's shape (throws std::invalid_argument otherwise).
@@ -78,17 +89,19 @@ class TreeSet {
   // Room for that many more trees and words, so that appending them allocates once.
   void reserve(std::size_t trees, std::size_t words) {
     extents_.reserve(extents_.size() + trees);
+    derived_roundings_.reserve(derived_roundings_.size() + trees);
     words_.reserve(words_.size() + words);
   }
   std::size_t size() const { return extents_.size(); }
   const PackedShape& shape() const { return shape_; }
-  TreeSetView view() const { return {shape_, extents_, words_, total_nodes_}; }
+  TreeSetView view() const { return {shape_, extents_, words_, total_nodes_, derived_roundings_}; }
   PackedTreeView tree(std::size_t i) const { return view().tree(i); }
 
  private:
   PackedShape shape_;
   std::vector<TreeExtent> extents_;
   std::vector<std::uint32_t> words_;
+  std::vector<float> derived_roundings_;  // one per tree
   std::size_t total_nodes_ = 0;
 };
 
