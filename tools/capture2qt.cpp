@@ -97,7 +97,7 @@ int main(int argc, char** argv) {
                  "OBJ scene that occludes (polygons are triangulated; up to 4 GiB and 2^28 "
                  "triangles)");
   auto* where = app.add_option_group("points", "where to capture (one of)");
-  where->add_option("--at", at, "one point X,Y,Z (with --normal)");
+  CLI::Option* at_option = where->add_option("--at", at, "one point X,Y,Z (with --normal)");
   where->add_option("--points", points_path,
                     "CSV file of points: x,y,z,nx,ny,nz per line (up to 10^7 points)");
   where
@@ -107,7 +107,7 @@ int main(int argc, char** argv) {
                    "over the shards of a run)")
       ->check(CLI::Range(1LL, 1000000000000LL));
   where->add_option("--image", image_path, "compress this capture image instead of tracing");
-  app.add_option("--normal", normal_text, "normal at --at (default 0,0,1)");
+  app.add_option("--normal", normal_text, "normal at --at (default 0,0,1)")->needs(at_option);
   app.add_option("--seed", seed, "seed of the jitter and of --sample (default 1)")
       ->check(basis::cli::unsigned_number());
   app.add_option(

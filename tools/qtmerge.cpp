@@ -80,7 +80,7 @@ int main(int argc, char** argv) {
                  "costs)")
       ->check(CLI::Range(1, 1024));
   app.add_flag("--json", json, "print what was written as JSON");
-  app.add_flag("-q,--quiet", quiet, "no progress bar or summary");
+  app.add_flag("-q,--quiet", quiet, "no progress bar or summary (--json still prints)");
   app.set_version_flag("--version", basis::kVersion);
 
   return basis::cli::run(app, argc, argv, [&] {
@@ -160,6 +160,6 @@ int main(int argc, char** argv) {
         std::printf("%s: a manifest of %zu shards, %llu points\n", manifest_output.c_str(),
                     sets.size(), static_cast<unsigned long long>(points));
     }
-    if (json && !quiet) std::cout << basis::json_text(report) << "\n";
+    if (json) std::cout << basis::json_text(report) << "\n";
   });
 }

@@ -265,7 +265,10 @@ TEST(Capture2qtCli, BadUsageIsExitTwo) {
         {"--env-constant", "1,1,1", "--sample", "5"},
         {"--env-constant", "1,-1,1", "--at", "0,0,0"},
         {"--env-constant", "1,1,1", "--at", "0,0,0", "--points", "p.csv"},
-        {"--env-constant", "1,1,1", "--at", "0,0,0", "--env", "x.hdr"}}) {
+        {"--env-constant", "1,1,1", "--at", "0,0,0", "--env", "x.hdr"},
+        // --normal is the normal at --at: with other points it would be ignored.
+        {"--env-constant", "1,1,1", "--scene", "room.obj", "--sample", "5", "--normal", "0,0,1"},
+        {"--env-constant", "1,1,1", "--points", "p.csv", "--normal", "0,0,1"}}) {
     const auto r = run_tool("capture2qt", args, dir.path());
     EXPECT_EQ(r.status, 2) << r.err;
     EXPECT_EQ(testing::line_count(r.err), 1) << r.err;

@@ -100,7 +100,13 @@ TEST(ShardCli, ShardsJoinIntoTheBytesOfOneProcess) {
                      dir.path())
                 .status,
             0);
-  ASSERT_EQ(run_tool("qtmerge", {"set.qtm", "-o", "m2.qt"}, dir.path()).status, 0);
+  // --json says what was written, quiet or not (-q leaves out progress and the summary line).
+  const auto joined = run_tool("qtmerge", {"set.qtm", "-o", "m2.qt", "--json", "-q"}, dir.path());
+  ASSERT_EQ(joined.status, 0) << joined.err;
+  const auto report = nlohmann::json::parse(joined.out);
+  EXPECT_EQ(report["points"], 37);
+  EXPECT_EQ(report["shards"], 4);
+  EXPECT_EQ(report["output"], "m2.qt");
   EXPECT_EQ(slurp(dir.file("m2.qt")), slurp(dir.file("single.qt")));
   // Each shard's checksum file is what xxh128sum checks.
   EXPECT_EQ(::system(("cd '" + dir.path() + "' && xxh128sum -c --quiet s.*.qt.xxh128").c_str()), 0);

@@ -235,6 +235,14 @@ TEST(BrdfSpec, ErrorsNameFileLineAndField) {
   EXPECT_EQ(spec_error(dir, "{\"model\": \"phong\", \"ks\": 0.4, \"exponent\": 1e400}"),
             ": invalid JSON: a number is out of range");
   EXPECT_EQ(spec_error(dir, "[1, 2]"), ":1: a BRDF spec is a JSON object {\"model\": ..., ...}");
+  // A key given twice in one object: refused, not the last one taken (the same keys in objects
+  // of an array, as a scene's meshes, are read as before: RenderScene tests).
+  EXPECT_EQ(spec_error(dir, "{\"model\": \"lambert\", \"albedo\": 0.5, \"albedo\": 0.9}"),
+            ": invalid JSON: key 'albedo' given twice in one object");
+  EXPECT_EQ(spec_error(dir,
+                       "{\"model\": \"lambert\", \"albedo\": 0.5,\n \"table\": {\"wi_res\": "
+                       "16, \"wi_res\": 32}}"),
+            ": invalid JSON: key 'wi_res' given twice in one object");
   EXPECT_THROW(read_brdf_spec(dir.file("missing.json")), FileError);
   EXPECT_THROW(read_brdf_spec(dir.path()), FileError);
 }

@@ -216,12 +216,13 @@ inline __m128 shared_channel(__m128i words, int c, __m128 steps) {
 constexpr float kSharedStepMagnitude = float(0.5 / kHalfRounding);
 
 // What the steps of the shared-exponent words of the node at w are multiplied by for their
-// rounding magnitude: derived_step in a derived node (its four quadrants refined: its link's
-// mask full), kSharedStepMagnitude elsewhere (texel nodes, kTexel, have no link).
+// rounding magnitude: step_magnitudes[1] in a derived node (its four quadrants refined: its
+// link's mask full), step_magnitudes[0] (kSharedStepMagnitude) elsewhere; texel nodes (kTexel)
+// have no link. Chosen by index, without a branch on the data (which no predictor learns).
 template <bool kTexel>
-inline float step_magnitude(const std::uint32_t* w, float derived_step) {
+inline float step_magnitude(const std::uint32_t* w, const float* step_magnitudes) {
   if constexpr (kTexel) return kSharedStepMagnitude;
-  return (w[0] & 15u) == 15u ? derived_step : kSharedStepMagnitude;
+  return step_magnitudes[((w[0] & 15u) + 1u) >> 4];
 }
 
 inline float lane_sum(__m128 v) {
@@ -253,9 +254,10 @@ struct DescentConstants {
   // factor that brings a texel word's step to its bound, half the step, in bound units.
   bool shared_a, shared_b;
   float shared_bound_a, shared_bound_b;
-  // What a derived node's word steps are multiplied by for their rounding magnitude:
-  // kSharedStepMagnitude times the tree's derived_rounding (PackedTreeView).
-  float derived_step_a, derived_step_b;
+  // What a node's word steps are multiplied by for their rounding magnitude (step_magnitude):
+  // kSharedStepMagnitude, and in a derived node that times the tree's derived_rounding
+  // (PackedTreeView).
+  float step_magnitudes_a[2], step_magnitudes_b[2];
   // In double: two trees' scales multiply beyond the floats' range (2^-252 to 2^235).
   double value_scale, bound_scale;
   float values_in_bound_units, linf_a_scale, linf_b_scale;
@@ -297,8 +299,8 @@ struct DescentConstants {
         shared_b(CB == 3 && tb.shape().shared_values()),
         shared_bound_a(texel_bound_a * 0.5f),
         shared_bound_b(texel_bound_b * 0.5f),
-        derived_step_a(kSharedStepMagnitude * ta.derived_rounding()),
-        derived_step_b(kSharedStepMagnitude * tb.derived_rounding()),
+        step_magnitudes_a{kSharedStepMagnitude, kSharedStepMagnitude * ta.derived_rounding()},
+        step_magnitudes_b{kSharedStepMagnitude, kSharedStepMagnitude * tb.derived_rounding()},
         targeted(accuracy > 0) {
     if (!weights.empty()) {
       combined = weights.size() > 1;
@@ -439,17 +441,17 @@ struct NarrowPairs {
     __m128 value, magnitude, share, rounding_units, bound;
   };
   // Channel c of the node at w (a texel node with kTexel), from its shared-exponent words and
-  // their steps (loaded once per node) when shared, else from its halves. derived_step: the
-  // steps' factor in a derived node (DescentConstants).
+  // their steps (loaded once per node) when shared, else from its halves. step_magnitudes: the
+  // steps' factors (DescentConstants).
   template <bool kTexel>
   static Side one_channel(const std::uint32_t* w, int c, bool shared, __m128i words, __m128 steps,
                           std::size_t codes, float texel_bound, float shared_bound,
-                          float derived_step) {
+                          const float* step_magnitudes) {
     Side s;
     if (shared) {
       s.value = shared_channel(words, c, steps);
       const __m128 step_share =
-          _mm_mul_ps(steps, _mm_set1_ps(step_magnitude<kTexel>(w, derived_step)));
+          _mm_mul_ps(steps, _mm_set1_ps(step_magnitude<kTexel>(w, step_magnitudes)));
       s.magnitude = _mm_max_ps(s.value, step_share);
       s.share = _mm_mul_ps(_mm_add_ps(s.value, step_share), _mm_set1_ps(0.5f));
       s.rounding_units = step_share;
@@ -512,7 +514,7 @@ struct NarrowPairs {
         stopping_bound = load_bound_codes(wa + k.codes_a + CA + ca);
       } else if constexpr (GW == 1) {
         a = one_channel<kTexelA>(wa, ca, shared_a, words_a, steps_a, k.codes_a, k.texel_bound_a,
-                                 k.shared_bound_a, k.derived_step_a);
+                                 k.shared_bound_a, k.step_magnitudes_a);
       } else {
         a.value = a.magnitude = a.bound = _mm_setzero_ps();
         for (int g = 0; g < GW; ++g) {
@@ -530,7 +532,7 @@ struct NarrowPairs {
       }
       const Side b =
           one_channel<kTexelB>(wb, CB == 1 ? 0 : c, shared_b, words_b, steps_b, k.codes_b,
-                               k.texel_bound_b, k.shared_bound_b, k.derived_step_b);
+                               k.texel_bound_b, k.shared_bound_b, k.step_magnitudes_b);
       vb[c] = b.value;
       product[c] = _mm_mul_ps(a.value, b.value);
       if constexpr (kFolded)
@@ -700,14 +702,14 @@ struct WidePairs {
   // shared, else from its halves.
   template <bool kTexel>
   static Side one_group(const std::uint32_t* w, int channels, bool shared, std::size_t codes,
-                        float texel_bound, float shared_bound, float derived_step) {
+                        float texel_bound, float shared_bound, const float* step_magnitudes) {
     const std::uint32_t* values_at = w + (kTexel ? 0 : 1);
     Side s;
     if (shared) {
       __m512 steps;
       s.value = shared_values(values_at, steps);
       const __m512 step_share =
-          _mm512_mul_ps(steps, _mm512_set1_ps(step_magnitude<kTexel>(w, derived_step)));
+          _mm512_mul_ps(steps, _mm512_set1_ps(step_magnitude<kTexel>(w, step_magnitudes)));
       s.magnitude = _mm512_maskz_max_ps(0xffff, s.value, step_share);
       s.share = _mm512_mul_ps(_mm512_add_ps(s.value, step_share), _mm512_set1_ps(0.5f));
       s.rounding_units = step_share;
@@ -741,7 +743,7 @@ struct WidePairs {
       stopping_bound = bounds(wa, CA, k.codes_a + CA);
     } else if constexpr (GW == 1) {
       a = one_group<kTexelA>(wa, CA, CA == 3 && k.shared_a, k.codes_a, k.texel_bound_a,
-                             k.shared_bound_a, k.derived_step_a);
+                             k.shared_bound_a, k.step_magnitudes_a);
     } else {
       a.value = a.magnitude = a.bound = _mm512_setzero_ps();
       for (int g = 0; g < GW; ++g) {
@@ -756,7 +758,7 @@ struct WidePairs {
       a.share = a.magnitude;
     }
     const Side b = one_group<kTexelB>(wb, CB, kSharedWordsB || (CB == 3 && k.shared_b), k.codes_b,
-                                      k.texel_bound_b, k.shared_bound_b, k.derived_step_b);
+                                      k.texel_bound_b, k.shared_bound_b, k.step_magnitudes_b);
     const __m512 product = _mm512_mul_ps(a.value, b.value);
     __m512 magnitude;
     if constexpr (kFolded) {  // see NarrowPairs::folded_magnitude

@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <set>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include "basis/core/file_error.h"
 
@@ -13,7 +16,21 @@ using nlohmann::json;
 
 json JsonFields::parse() const {
   try {
-    return json::parse(text_);
+    // A key given twice in one object is refused: the parser would keep the last silently.
+    std::vector<std::set<std::string>> keys;  // of each object being read, outermost first
+    std::string repeated;
+    auto check_keys = [&](int, json::parse_event_t event, json& parsed) {
+      if (event == json::parse_event_t::object_start) keys.emplace_back();
+      if (event == json::parse_event_t::object_end && !keys.empty()) keys.pop_back();
+      if (event == json::parse_event_t::key && !keys.empty() &&
+          !keys.back().insert(parsed.get<std::string>()).second && repeated.empty())
+        repeated = parsed.get<std::string>();
+      return true;
+    };
+    json parsed = json::parse(text_, check_keys);
+    if (!repeated.empty())
+      throw FileError(name_ + ": invalid JSON: key '" + repeated + "' given twice in one object");
+    return parsed;
   } catch (const json::parse_error& e) {
     const std::size_t at = std::min<std::size_t>(e.byte > 0 ? e.byte - 1 : 0, text_.size());
     const int line = 1 + int(std::count(text_.begin(), text_.begin() + std::ptrdiff_t(at), '\n'));
