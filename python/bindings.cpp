@@ -37,6 +37,7 @@
 #include "basis/format/qt_recipe.h"
 #include "basis/io/image_file.h"
 #include "basis/lighting/capture.h"
+#include "basis/lighting/capture_inputs.h"
 #include "basis/lighting/embree_scene.h"
 #include "basis/lighting/mesh.h"
 #include "basis/lighting/shading.h"
@@ -856,6 +857,7 @@ PYBIND11_MODULE(basis, m) {
                             mesh->reader_warnings.end());
             traced = std::make_unique<EmbreeScene>(*mesh);
           }
+          recipe.inputs_checksum = capture_inputs_checksum(*environment, mesh.get());
         }
         warn_each(warnings);
         recipe.options = {.resolution = res,

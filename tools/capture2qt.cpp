@@ -19,6 +19,7 @@
 #include "basis/io/image_file.h"
 #include "basis/io/json_text.h"
 #include "basis/lighting/capture.h"
+#include "basis/lighting/capture_inputs.h"
 #include "basis/lighting/embree_scene.h"
 #include "basis/lighting/mesh.h"
 #include "cli.h"
@@ -254,6 +255,7 @@ int main(int argc, char** argv) {
       scene = std::make_unique<basis::EmbreeScene>(*mesh);
     }
     recipe.scene = scene_path;
+    recipe.inputs_checksum = basis::capture_inputs_checksum(environment, mesh.get());
     // The provenance can name the inputs (refused before any work otherwise).
     static_cast<void>(basis::capture_parameters(recipe));
     std::vector<basis::SurfacePoint> points;

@@ -1,4 +1,5 @@
 #include "basis/format/qt_recipe.h"
+#include "basis/io/checksum.h"
 #include "basis/io/json_text.h"
 
 #include <charconv>
@@ -68,6 +69,7 @@ std::string capture_parameters(const CaptureRecipe& r) {
       {"env_constant", constant},
       {"scene", r.scene},
       {"lights", apart ? "apart" : "splatted"}};
+  if (!r.inputs_checksum.empty()) j["inputs_xxh128"] = r.inputs_checksum;
   if (r.shard)
     j["shard"] = {{"index", r.shard->shard.index},
                   {"count", r.shard->shard.count},
@@ -131,6 +133,10 @@ CaptureRecipe capture_recipe(const QtFile& captures) {
     }
     r.environment = j.value("env", std::string());
     r.scene = j.value("scene", std::string());
+    r.inputs_checksum = j.value("inputs_xxh128", std::string());
+    if (!r.inputs_checksum.empty() && !is_checksum_text(r.inputs_checksum))
+      throw FileError(captures.name() + ": its provenance records inputs checksum '" +
+                      r.inputs_checksum + "', not 32 hex digits");
     if (j.contains("shard")) {
       const auto& s = j.at("shard");
       CaptureShard shard{{s.at("index").get<int>(), s.at("count").get<int>()},

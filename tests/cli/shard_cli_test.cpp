@@ -245,6 +245,45 @@ TEST(ShardCli, ManifestShardsThatChangedAreNamedInOneLine) {
   EXPECT_FALSE(std::filesystem::exists(dir.file("new.qtm")));
 }
 
+// Shards of a run whose scene changed between them, under the same name and with the same
+// recorded parameters (one face's winding reversed: the same vertices and extent, so the same
+// ray offset): not of one run. Only the inputs' checksum tells them apart; qtmerge took them.
+TEST(ShardCli, ShardsOfAChangedSceneAreNotOfOneRun) {
+  TempDir dir;
+  std::filesystem::copy_file(kScene, dir.file("scene.obj"));
+  auto shard = [&](int k) {
+    std::vector<std::string> args = light();
+    for (const char* a : {"--scene", "scene.obj", "--res", "16", "--spp", "1", "-q", "--sample",
+                          "12", "--seed", "3"})
+      args.push_back(a);
+    args.insert(args.end(), {"--shard", std::to_string(k) + "/3", "-o",
+                             "c." + std::to_string(k) + ".qt"});
+    return run_tool("capture2qt", args, dir.path());
+  };
+  ASSERT_EQ(shard(0).status, 0);
+  ASSERT_EQ(shard(2).status, 0);
+  std::string text = slurp(dir.file("scene.obj"));
+  const std::size_t face = text.find("\nf 1 2 3 4\n");
+  ASSERT_NE(face, std::string::npos);
+  text.replace(face, 11, "\nf 4 3 2 1\n");
+  std::ofstream(dir.file("scene.obj"), std::ios::trunc) << text;
+  ASSERT_EQ(shard(1).status, 0);
+  expect_refusal(run_tool("qtmerge", {"c.0.qt", "c.1.qt", "c.2.qt", "-o", "m.qt"}, dir.path()), 1,
+                 "c.1.qt: a shard of another run");
+  EXPECT_FALSE(std::filesystem::exists(dir.file("m.qt")));
+  // A reference traced again from the changed scene: refused, naming the captures and why.
+  write_table(dir);
+  const auto reference =
+      run_tool("qtconvolve", {"phong.qt", "c.0.qt", "--reference", "--csv"}, dir.path());
+  expect_refusal(reference, 1, "c.0.qt: cannot read what it was captured from (");
+  EXPECT_NE(reference.err.find("scene scene.obj changed since the capture"), std::string::npos)
+      << reference.err;
+  // Shard 1 was captured from the scene as it is now: its reference runs.
+  EXPECT_EQ(run_tool("qtconvolve", {"phong.qt", "c.1.qt", "--reference", "--csv"}, dir.path())
+                .status,
+            0);
+}
+
 TEST(ShardCli, ReRunsRedoOnlyTheShardsThatAreMissingOrAltered) {
   TempDir dir;
   ASSERT_EQ(capture(dir, with(sample(26), {"-o", "single.qt"})).status, 0);

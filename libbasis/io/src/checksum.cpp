@@ -61,6 +61,13 @@ std::string checksum_hex(std::span<const std::byte> bytes) {
   return hash.hex();
 }
 
+std::string pieces_checksum_hex(std::initializer_list<std::span<const std::byte>> pieces) {
+  Xxh128 hash;
+  for (const std::span<const std::byte> piece : pieces)
+    hash.update(piece.data(), piece.size());
+  return hash.hex();
+}
+
 std::string file_checksum_hex(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw FileError(path + ": cannot open: " + std::strerror(errno));

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <initializer_list>
 #include <numbers>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -17,6 +18,7 @@
 #include "basis/core/hemisphere.h"
 #include "basis/io/image_file.h"
 #include "basis/lighting/capture.h"
+#include "basis/lighting/capture_inputs.h"
 #include "basis/lighting/embree_scene.h"
 #include "basis/lighting/mesh.h"
 
@@ -28,7 +30,20 @@ CaptureInputs open_capture_inputs(const CaptureRecipe& recipe) {
                            : Environment(read_image(recipe.environment), recipe.rotate_z_degrees,
                                          recipe.environment),
                        nullptr};
-  if (!recipe.scene.empty()) inputs.scene = std::make_unique<EmbreeScene>(read_obj(recipe.scene));
+  std::optional<TriangleMesh> mesh;
+  if (!recipe.scene.empty()) mesh = read_obj(recipe.scene);
+  if (!recipe.inputs_checksum.empty() &&
+      capture_inputs_checksum(inputs.environment, mesh ? &*mesh : nullptr) !=
+          recipe.inputs_checksum) {
+    std::string inputs;
+    if (!recipe.environment.empty()) inputs = "the map " + recipe.environment;
+    if (!recipe.scene.empty())
+      inputs += (inputs.empty() ? "the scene " : " or the scene ") + recipe.scene;
+    if (inputs.empty()) inputs = "the constant light";
+    throw FileError(inputs + " changed since the capture: what it holds no longer has the "
+                             "recorded checksum");
+  }
+  if (mesh) inputs.scene = std::make_unique<EmbreeScene>(*mesh);
   return inputs;
 }
 

@@ -43,6 +43,9 @@ struct CaptureRecipe {
   Color constant{0, 0, 0};
   double rotate_z_degrees = 0;
   std::string scene;  // OBJ path, empty when nothing occludes
+  // What the map and scene held when captured (capture_inputs_checksum), empty for sets made
+  // before it was recorded.
+  std::string inputs_checksum;
   CaptureOptions options;
   ProjectionOptions projection;
   std::optional<CaptureShard> shard;
@@ -52,9 +55,10 @@ struct CaptureRecipe {
 };
 
 // The recipe as the parameters (JSON text) of a capture set's provenance, which
-// capture_recipe reads back. A shard's are the whole run's with "shard": {"index", "count",
-// "total_points"} as the last field. Throws FileError naming a map or scene whose name is not
-// UTF-8 (JSON could not record it as itself).
+// capture_recipe reads back; the inputs' checksum as "inputs_xxh128" when there is one, so
+// that shards whose map or scene changed between them are not of one run. A shard's are the
+// whole run's with "shard": {"index", "count", "total_points"} as the last field. Throws FileError
+// naming a map or scene whose name is not UTF-8 (JSON could not record it as itself).
 std::string capture_parameters(const CaptureRecipe& recipe);
 
 // The parameters of the whole run that a shard's parameters (JSON text) belong to: the same text

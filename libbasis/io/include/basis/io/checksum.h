@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstddef>
+#include <initializer_list>
 #include <span>
 #include <string>
 
@@ -14,6 +15,9 @@ namespace basis {
 
 // The XXH3-128 of `bytes`, 32 lowercase hex digits (most significant first, as xxh128sum).
 std::string checksum_hex(std::span<const std::byte> bytes);
+
+// The XXH3-128 of the pieces' bytes one after the other: checksum_hex of their concatenation.
+std::string pieces_checksum_hex(std::initializer_list<std::span<const std::byte>> pieces);
 
 // The XXH3-128 of a file's contents, read in pieces. Throws FileError naming the file when it
 // cannot be read.

@@ -49,6 +49,8 @@ class Environment {
   std::array<int, 2> pixel_at(const Vec3& w) const;
   Color pixel_radiance(int row, int column) const { return pixel(row, column); }
   bool is_constant() const { return constant_; }
+  // The map's RGB rows as read, repairs applied (a constant environment: its one pixel).
+  std::span<const float> pixels() const { return pixels_; }
   // Radiance of the smooth part (bright excess removed) of the pixel seen in direction w.
   Color smooth_radiance(const Vec3& w) const;
   // The smooth part averaged over about `pixels` x `pixels` map pixels around w: bilinear in

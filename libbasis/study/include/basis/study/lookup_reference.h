@@ -18,7 +18,8 @@
 namespace basis {
 
 // The light and scene a capture recipe names, opened again (map read through OpenImageIO, OBJ
-// traced with Embree). Throws FileError for inputs that moved or changed.
+// traced with Embree). Throws FileError for inputs that moved or cannot be read, and for inputs
+// whose checksum is not the one the recipe records (they changed since the capture).
 struct CaptureInputs {
   Environment environment;
   std::unique_ptr<RayScene> scene;  // null when nothing occludes
