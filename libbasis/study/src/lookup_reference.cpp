@@ -40,8 +40,9 @@ CaptureInputs open_capture_inputs(const CaptureRecipe& recipe) {
     if (!recipe.scene.empty())
       inputs += (inputs.empty() ? "the scene " : " or the scene ") + recipe.scene;
     if (inputs.empty()) inputs = "the constant light";
-    throw FileError(inputs + " changed since the capture: what it holds no longer has the "
-                             "recorded checksum");
+    throw FileError(inputs +
+                    " changed since the capture: what it holds no longer has the "
+                    "recorded checksum");
   }
   if (mesh) inputs.scene = std::make_unique<EmbreeScene>(*mesh);
   return inputs;
