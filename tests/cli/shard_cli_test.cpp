@@ -256,8 +256,8 @@ TEST(ShardCli, ShardsOfAChangedSceneAreNotOfOneRun) {
     for (const char* a : {"--scene", "scene.obj", "--res", "16", "--spp", "1", "-q", "--sample",
                           "12", "--seed", "3"})
       args.push_back(a);
-    args.insert(args.end(), {"--shard", std::to_string(k) + "/3", "-o",
-                             "c." + std::to_string(k) + ".qt"});
+    args.insert(args.end(),
+                {"--shard", std::to_string(k) + "/3", "-o", "c." + std::to_string(k) + ".qt"});
     return run_tool("capture2qt", args, dir.path());
   };
   ASSERT_EQ(shard(0).status, 0);
@@ -279,9 +279,8 @@ TEST(ShardCli, ShardsOfAChangedSceneAreNotOfOneRun) {
   EXPECT_NE(reference.err.find("scene scene.obj changed since the capture"), std::string::npos)
       << reference.err;
   // Shard 1 was captured from the scene as it is now: its reference runs.
-  EXPECT_EQ(run_tool("qtconvolve", {"phong.qt", "c.1.qt", "--reference", "--csv"}, dir.path())
-                .status,
-            0);
+  EXPECT_EQ(
+      run_tool("qtconvolve", {"phong.qt", "c.1.qt", "--reference", "--csv"}, dir.path()).status, 0);
 }
 
 TEST(ShardCli, ReRunsRedoOnlyTheShardsThatAreMissingOrAltered) {
