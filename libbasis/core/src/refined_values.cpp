@@ -76,7 +76,11 @@ bool derive_pass(PackedTree& tree, std::vector<double>& scratch) {
       for (int c = 0; c < 3; ++c) {
         for (std::size_t i = 0; i < 4; ++i) {
           v[c][i] = double(shared_exponent_channel(child_values[i], c)) * value_scale;
-          const double rounding = half_step(child_values[i]);
+          // A stored node's value is a float average of its texels, rounded to a word: within
+          // half its step of their mean, and the float average's own error (about 2^-24 of the
+          // largest channel per level, below 2^-19 of it over a tree's levels, where half a step
+          // is at least 2^-10 of it) within 2^-9 of that half step.
+          const double rounding = half_step(child_values[i]) * (texel ? 1 : 1 + 0x1p-9);
           const std::size_t at = std::size_t(c) * 4 + i;
           if (texel) {  // as PackedTreeView::bound: half the word's step
             s[c][i] = rounding * (1 + 0x1p-20);

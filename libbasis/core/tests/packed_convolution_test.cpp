@@ -8,11 +8,13 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <string>
 #include <utility>
 #include <vector>
 
 #include "basis/core/convolution.h"
 #include "basis/core/dense.h"
+#include "basis/core/folded_tree.h"
 #include "basis/core/packed_tree.h"
 #include "basis/core/projection.h"
 #include "support/test_functions.h"
@@ -388,43 +390,61 @@ TEST(PackedConvolution, LargestDeviationsAgainstASignedFunctionKeepTheirBound) {
 
 // Captures whose texels' roundings to words all go one way (one_way_rounding_grid), refined
 // over every quadrant so that every node above the texels has values derived from its
-// children's (refined_values.h): against constants (in halves, and a capture's words), against
-// themselves, with and without an accuracy target, the texels' product lies within the bound on
-// every path. Derived level by level from rounded values, with the rounding of a stored value
-// allowed them, a 16^2 capture against a constant printed 61,122.83 +- 325.9 for a product of
-// 60,720.91.
+// children's (refined_values.h), cut with l2 and linf bounds: against constants (in halves, and
+// a capture's words), against themselves, with and without an accuracy target, SIMD and scalar,
+// and against a weighted group and a folded sum, the texels' product lies within the bound. Derived
+// level by level from rounded values, with the rounding of a stored value allowed them, a 16^2
+// capture against a constant printed 61,122.83 +- 325.9 for a product of 60,720.91.
 TEST(PackedConvolution, DerivedValuesKeepTheirBoundWhenEveryRoundingGoesOneWay) {
-  for (const int n : {4, 16, 64}) {
-    SCOPED_TRACE(n);
-    const Grid grid = testing::one_way_rounding_grid(n);
-    const PackedTree capture = pack_exact_texels(project(grid, {.tolerance = 0}));
-    ASSERT_TRUE(capture.shape.shared_values());
-    ASSERT_EQ(capture.view().link(0) & 15u, 15u);
-    EXPECT_GT(capture.derived_rounding, 1.0f);
-    Grid grey(n, 1), rgb(n, 3);
-    for (float& t : grey.texels)
-      t = 1;
-    for (float& t : rgb.texels)
-      t = 1;
-    const PackedTree halves = pack(project(grey, {.tolerance = 0.05}));
-    const PackedTree constant = pack_exact_texels(project(rgb, {.tolerance = 0.05}));
-    const std::vector<std::pair<const PackedTree*, const Grid*>> others = {
-        {&halves, &grey}, {&constant, &rgb}, {&capture, &grid}};
-    for (const auto& [other, other_grid] : others)
-      for (const bool swapped : {false, true})
-        for (const double accuracy : {0.0, 0.05}) {
-          const PackedTreeView a = swapped ? other->view() : capture.view();
-          const PackedTreeView b = swapped ? capture.view() : other->view();
-          const ConvolutionOptions options{.accuracy = accuracy};
-          for (const Convolution& r : {convolve(a, b, options), convolve_scalar(a, b, options)})
-            for (int c = 0; c < 3; ++c) {
-              const double exact = grid_product(grid, *other_grid, c);
-              EXPECT_LE(std::abs(double(r.value[c]) - exact), double(r.bound[c]))
-                  << "channel " << c << " against a tree of " << other->node_count()
-                  << " nodes, swapped " << swapped << ", accuracy " << accuracy;
-            }
+  for (const int n : {4, 16, 64})
+    for (const BoundKind kind : {BoundKind::l2, BoundKind::linf}) {
+      SCOPED_TRACE(std::to_string(n) + (kind == BoundKind::l2 ? " l2" : " linf"));
+      const Grid grid = testing::one_way_rounding_grid(n);
+      const PackedTree capture = pack_exact_texels(project(grid, {.tolerance = 0}), kind);
+      ASSERT_TRUE(capture.shape.shared_values());
+      ASSERT_EQ(capture.view().link(0) & 15u, 15u);
+      EXPECT_GT(capture.derived_rounding, 1.0f);
+      Grid grey(n, 1), rgb(n, 3);
+      for (float& t : grey.texels)
+        t = 1;
+      for (float& t : rgb.texels)
+        t = 1;
+      const PackedTree halves = pack(project(grey, {.tolerance = 0.05}));
+      const PackedTree constant = pack_exact_texels(project(rgb, {.tolerance = 0.05}));
+      auto check = [&](const Convolution& r, const Grid& other, double weight,
+                       const std::string& what) {
+        for (int c = 0; c < 3; ++c) {
+          const double exact = weight * grid_product(grid, other, c);
+          EXPECT_LE(std::abs(double(r.value[c]) - exact), double(r.bound[c]))
+              << what << ", channel " << c;
         }
-  }
+      };
+      const std::vector<std::pair<const PackedTree*, const Grid*>> others = {
+          {&halves, &grey}, {&constant, &rgb}, {&capture, &grid}};
+      for (const auto& [other, other_grid] : others)
+        for (const bool swapped : {false, true})
+          for (const double accuracy : {0.0, 0.05}) {
+            const PackedTreeView a = swapped ? other->view() : capture.view();
+            const PackedTreeView b = swapped ? capture.view() : other->view();
+            const ConvolutionOptions options{.accuracy = accuracy};
+            const std::string what = "against a tree of " + std::to_string(other->node_count()) +
+                                     " nodes, swapped " + std::to_string(swapped) + ", accuracy " +
+                                     std::to_string(accuracy);
+            check(convolve(a, b, options), *other_grid, 1, what);
+            check(convolve_scalar(a, b, options), *other_grid, 1, what + ", scalar");
+          }
+      // A weighted group and a folded sum of two terms (a table's lookups between entries)
+      // against the capture.
+      const float w[1] = {0.75f};
+      check(convolve_weighted(halves.view(), w, capture.view()), grey, 0.75, "weighted");
+      check(convolve_weighted_scalar(halves.view(), w, capture.view()), grey, 0.75,
+            "weighted, scalar");
+      if (folding_available()) {
+        const std::vector<WeightedTerm> terms = {{halves.view(), {0.5f, 0, 0}, 1},
+                                                 {halves.view(), {0.25f, 0, 0}, 1}};
+        check(convolve(fold(terms), capture.view()), grey, 0.75, "folded");
+      }
+    }
 }
 
 // An accuracy target stops on the bound: asking for one without the bound is an error, on

@@ -35,12 +35,12 @@ CaptureInputs open_capture_inputs(const CaptureRecipe& recipe) {
   if (!recipe.inputs_checksum.empty() &&
       capture_inputs_checksum(inputs.environment, mesh ? &*mesh : nullptr) !=
           recipe.inputs_checksum) {
-    std::string inputs;
-    if (!recipe.environment.empty()) inputs = "the map " + recipe.environment;
+    std::string what;
+    if (!recipe.environment.empty()) what = "the map " + recipe.environment;
     if (!recipe.scene.empty())
-      inputs += (inputs.empty() ? "the scene " : " or the scene ") + recipe.scene;
-    if (inputs.empty()) inputs = "the constant light";
-    throw FileError(inputs +
+      what += (what.empty() ? "the scene " : " or the scene ") + recipe.scene;
+    if (what.empty()) what = "the constant light";
+    throw FileError(what +
                     " changed since the capture: what it holds no longer has the "
                     "recorded checksum");
   }

@@ -80,9 +80,6 @@ class TreeSet {
  public:
   TreeSet() = default;
   explicit TreeSet(PackedShape shape) : shape_(shape) {}
-  // The trees laid out by `extents` in `words`, taken as they are (for a reader that has checked
-  // them), their derived values within half their steps (derived_rounding 1).
-  TreeSet(PackedShape shape, std::vector<TreeExtent> extents, std::vector<std::uint32_t> words);
 
   // Appends a packed tree of the set's shape (throws std::invalid_argument otherwise).
   void append(const PackedTreeView& tree);
