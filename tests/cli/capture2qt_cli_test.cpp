@@ -297,19 +297,20 @@ TEST(Capture2qtCli, InterruptLeavesNoOutput) {
                                     dir.path(), 500, SIGINT);
   EXPECT_EQ(interrupted.status, 130) << interrupted.err;
   EXPECT_TRUE(std::filesystem::is_empty(dir.file("dump")));
-  const auto nowhere = run_tool("capture2qt",
-                                {"--env-constant", "1,1,1", "--scene", "room.obj", "--sample", "20",
-                                 "--res", "16", "--dump", "dump", "-o", "no/such/c.qt"},
-                                dir.path());
+  // A small run dumping its images into dump/, its set written to `output`.
+  auto dump_run = [&](const std::string& output) {
+    return run_tool("capture2qt",
+                    {"--env-constant", "1,1,1", "--scene", "room.obj", "--sample", "20", "--res",
+                     "16", "--dump", "dump", "-o", output},
+                    dir.path());
+  };
+  const auto nowhere = dump_run("no/such/c.qt");
   EXPECT_EQ(nowhere.status, 1) << nowhere.err;
   EXPECT_NE(nowhere.err.find("no/such/c.qt"), std::string::npos) << nowhere.err;
   EXPECT_TRUE(std::filesystem::is_empty(dir.file("dump")));
   // An image already there (an earlier run's, or a map) is neither replaced nor removed.
   std::ofstream(dir.file("dump/capture_00003.exr")) << "mine";
-  const auto there = run_tool("capture2qt",
-                              {"--env-constant", "1,1,1", "--scene", "room.obj", "--sample", "20",
-                               "--res", "16", "--dump", "dump", "-o", "c.qt"},
-                              dir.path());
+  const auto there = dump_run("c.qt");
   EXPECT_EQ(there.status, 1) << there.err;
   EXPECT_NE(there.err.find("capture_00003.exr: already there"), std::string::npos) << there.err;
   EXPECT_EQ(testing::slurp(dir.file("dump/capture_00003.exr")), "mine");

@@ -62,7 +62,6 @@ class TreeSetView {
   }
   std::span<const TreeExtent> extents() const { return extents_; }
   std::span<const std::uint32_t> words() const { return words_; }
-  std::span<const float> derived_roundings() const { return derived_roundings_; }
   // Nodes of every tree (of the whole set, for a slice).
   std::size_t total_nodes() const { return total_nodes_; }
   std::size_t bytes() const { return words_.size_bytes() + extents_.size_bytes(); }
