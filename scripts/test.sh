@@ -23,11 +23,19 @@ if [ "${BASIS_SKIP_SANITIZERS:-0}" != 1 ]; then
   # qtconvolve's glossy reflections of the sun and its sweep of tilted normals, and the radiance
   # cache's convergence repeat code that smaller tests run there (captures with a sun, the
   # renderer's cache, the library's tilt compensation) and have run in the Release pass above.
+  # So do three checks at scale: qtconvolve's bound against full-resolution references on 24
+  # traced points (the packed descents' bound tests and qtconvolve's other reference runs are
+  # left), the first-order trees of packed trees over every pair of test functions (the trees
+  # cut from texels are left), and the tables of every measured RGL file against its sampler
+  # (the RGL reader's other tests are left).
   repeated_accuracy_cases='GlossyReflections\.OfASunMatchDirectIntegration/'
   repeated_accuracy_cases+='|LookupAccuracy\.BetweenEntries.*/(phong40|phong100|phong200|ggx0_05|ggx0_1|ggx0_2|ggx0_5)( |$)'
   repeated_accuracy_cases+='|QtconvolveCli\.TiltedNormalsAreCompensatedWithinTheDocumentedAccuracy'
   repeated_accuracy_cases+='|RotationCompensation\.CutsTheTiltErrorUnderRealProbes'
   repeated_accuracy_cases+='|RadianceCache\.ConvergesToTheReferenceAsRecordsGrowDenser'
+  repeated_accuracy_cases+='|QtconvolveCli\.CertifiedBoundHoldsAgainstTheFullResolutionReference'
+  repeated_accuracy_cases+='|FirstOrderTree\.TreesOfPackedTreesHoldAgainstTheirData'
+  repeated_accuracy_cases+='|RglBrdf\.TabulatedAlbedoMatchesTheFilesOwnSampler'
   # intercept_tls_get_addr=0: clang 14's runtime misreads some dynamic TLS blocks of the image
   # module (loaded with dlopen) on glibc 2.36 and its leak check then crashes at exit, about
   # once in 50 processes; the blocks are heap allocations the leak check still scans.
