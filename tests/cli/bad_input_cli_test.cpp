@@ -290,8 +290,14 @@ TEST(BadInputMatrix, FifosAreRefusedNotWaitedOn) {
   TempDir dir;
   write_inputs(dir);
   for (const std::string pipe :
-       {"pipe.qt", "pipe.json", "pipe.exr", "pipe.txt", "pipe.obj", "pipe.binary"})
+       {"pipe.qt", "pipe.json", "pipe.exr", "pipe.txt", "pipe.obj", "pipe.binary", "pipe.mtl"})
     ASSERT_EQ(::mkfifo(dir.file(pipe).c_str(), 0600), 0) << pipe;
+  // Scenes whose material file is a FIFO or a folder (read as empty, its emitters went dark).
+  for (const std::string material : {"pipe", "folder"})
+    write_text(dir.file(material + "_material.obj"), "mtllib " + material +
+                                                         ".mtl\nv 0 0 1\nv 1 0 1\nv 0 1 1\n"
+                                                         "usemtl glow\nf 1 2 3\n");
+  std::filesystem::create_directories(dir.file("folder.mtl"));
   write_text(dir.file("merl.json"), R"({"model": "merl", "file": "pipe.binary"})");
   check(dir, "qtinfo", {{"pipe.qt"}, 1, "pipe.qt: is not a regular file"});
   check(dir, "qtconvolve", {{"ok.qt", "pipe.qt"}, 1, "pipe.qt: is not a regular file"});
@@ -305,6 +311,14 @@ TEST(BadInputMatrix, FifosAreRefusedNotWaitedOn) {
         {{"--env-constant", "1,1,1", "--scene", "pipe.obj", "--sample", "4", "-o", "out.qt"},
          1,
          "pipe.obj: is not a regular file"});
+  for (const auto& [material, problem] :
+       {std::pair<std::string, std::string>{"pipe", "pipe.mtl: is not a regular file"},
+        {"folder", "folder.mtl: is a directory, not a material file"}})
+    check(dir, "capture2qt",
+          {{"--env-constant", "1,1,1", "--scene", material + "_material.obj", "--sample", "4", "-o",
+            "out.qt"},
+           1,
+           problem});
   check(dir, "qtrender", {{"pipe.json", "-o", "out.exr"}, 1, "pipe.json:"});
   // A spec through a pipe that a process writes is read as a file is.
   const std::string command = "cat ok.json | '" + (testing::tool_directory() / "brdf2qt").string() +

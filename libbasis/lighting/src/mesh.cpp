@@ -9,6 +9,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <optional>
 #include <sstream>
 
@@ -26,6 +27,36 @@ std::string first_line(const std::string& text) {
     line.pop_back();
   return line;
 }
+
+// The material files an OBJ names, read beside it as tinyobjloader's own reader reads them, but
+// one that is not a regular file is refused by name: a FIFO would block the read for ever, and
+// a folder would be read as an empty file.
+class MaterialFilesBeside final : public tinyobj::MaterialReader {
+ public:
+  explicit MaterialFilesBeside(std::filesystem::path folder) : folder_(std::move(folder)) {}
+
+  bool operator()(const std::string& name, std::vector<tinyobj::material_t>* materials,
+                  std::map<std::string, int>* names, std::string* warning,
+                  std::string* error) override {
+    const std::filesystem::path path = folder_ / name;
+    std::error_code status_error;
+    if (!std::filesystem::exists(path, status_error)) {
+      *warning += "Material file [ " + name + " ] not found beside the OBJ file\n";
+      return false;
+    }
+    check_regular_file(path.string(), "a material file");
+    std::ifstream in(path);
+    if (!in) {
+      *warning += "Material file [ " + name + " ] cannot be opened\n";
+      return false;
+    }
+    tinyobj::LoadMtl(names, materials, &in, warning, error);
+    return true;
+  }
+
+ private:
+  std::filesystem::path folder_;
+};
 
 // tinyobjloader reads a coordinate it cannot parse ("nan", "abc") as 0 without a word, so the
 // numbers of vertex lines are checked here before it reads the file.
@@ -139,17 +170,20 @@ TriangleMesh read_obj(const std::string& path) {
     throw FileError(path + ": larger than " + std::to_string(kMaxObjBytes >> 30) +
                     " GiB, the limit of an OBJ scene");
   check_vertex_numbers(path);
-  tinyobj::ObjReaderConfig config;
-  config.triangulate = true;
-  config.vertex_color = false;
-  tinyobj::ObjReader reader;
-  if (!reader.ParseFromFile(path, config))
+  std::ifstream obj(path);
+  if (!obj) throw FileError(path + ": cannot open OBJ");
+  MaterialFilesBeside material_files(std::filesystem::path(path).parent_path());
+  tinyobj::attrib_t attrib;
+  std::vector<tinyobj::shape_t> shapes;
+  std::vector<tinyobj::material_t> materials;
+  std::string reader_warning, reader_error;
+  if (!tinyobj::LoadObj(&attrib, &shapes, &materials, &reader_warning, &reader_error, &obj,
+                        &material_files, /*triangulate=*/true, /*default_vcols_fallback=*/false))
     throw FileError(
         path + ": " +
-        (reader.Error().empty() ? std::string("cannot read OBJ") : first_line(reader.Error())));
-  const tinyobj::attrib_t& attrib = reader.GetAttrib();
+        (reader_error.empty() ? std::string("cannot read OBJ") : first_line(reader_error)));
   TriangleMesh mesh;
-  std::istringstream warnings(reader.Warning());
+  std::istringstream warnings(reader_warning);
   for (std::string line; std::getline(warnings, line);)
     if (line.find_first_not_of(" \t\r.") != std::string::npos &&
         std::find(mesh.reader_warnings.begin(), mesh.reader_warnings.end(), path + ": " + line) ==
@@ -175,7 +209,6 @@ TriangleMesh read_obj(const std::string& path) {
     }
   }
   const bool has_normals = normal_count > 0;
-  const auto& materials = reader.GetMaterials();
   // Emission past kLargestEmission would overflow the captures' float texels. (The reader
   // takes a Ke it cannot parse, such as nan, as 0.)
   for (const tinyobj::material_t& material : materials)
@@ -183,7 +216,7 @@ TriangleMesh read_obj(const std::string& path) {
       if (!(std::abs(e) <= kLargestEmission))
         throw FileError(path + ": material '" + material.name +
                         "': emission Ke is infinite or beyond 1e30");
-  for (const tinyobj::shape_t& shape : reader.GetShapes()) {
+  for (const tinyobj::shape_t& shape : shapes) {
     const auto& indices = shape.mesh.indices;
     for (std::size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f) {
       if (shape.mesh.num_face_vertices[f] != 3)
