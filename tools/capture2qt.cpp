@@ -15,6 +15,7 @@
 #include "basis/format/qt_file.h"
 #include "basis/format/qt_recipe.h"
 #include "basis/format/qt_shard.h"
+#include "basis/io/checksum.h"
 #include "basis/io/image.h"
 #include "basis/io/image_file.h"
 #include "basis/io/json_text.h"
@@ -309,6 +310,7 @@ int main(int argc, char** argv) {
     for (const std::string& source : {env_path, scene_path, points_path})
       if (!source.empty()) sources.push_back(source);
     if (recipe.shard) {
+      basis::check_checksum_file_name(output);
       const auto why = basis::why_shard_must_be_made(output, recipe, sources, bound_kind);
       if (skip_existing && !why) {
         if (!quiet)

@@ -385,5 +385,14 @@ TEST(ShardCli, ShardsNoRunHasAreUsageErrors) {
   EXPECT_TRUE(dir.entries().empty());
 }
 
+// A shard's checksum file is one line naming it, so a shard name with a line break is refused
+// before any work, in one line, rather than written with a checksum file no reader would take.
+TEST(ShardCli, AShardNameWithALineBreakIsRefusedBeforeAnyWork) {
+  TempDir dir;
+  expect_refusal(capture(dir, with(sample(5), {"--shard", "0/2", "-o", "a\nb.qt"})), 1,
+                 "a\\nb.qt: a line break in the name");
+  EXPECT_TRUE(dir.entries().empty());
+}
+
 }  // namespace
 }  // namespace basis

@@ -85,7 +85,18 @@ std::string checksum_path(const std::string& path) {
   return path + ".xxh128";
 }
 
+void check_checksum_file_name(const std::string& path) {
+  const std::string name = std::filesystem::path(path).filename().string();
+  if (name.find_first_of("\n\r") == std::string::npos) return;
+  std::string shown;
+  for (const char c : path)
+    shown += c == '\n' ? std::string("\\n") : c == '\r' ? std::string("\\r") : std::string(1, c);
+  throw FileError(shown +
+                  ": a line break in the name, which its checksum file's one line cannot hold");
+}
+
 void write_checksum_file(const std::string& path, const std::string& hex) {
+  check_checksum_file_name(path);
   const std::string line = hex + "  " + std::filesystem::path(path).filename().string() + "\n";
   write_file_atomically(checksum_path(path), std::as_bytes(std::span(line.data(), line.size())));
 }

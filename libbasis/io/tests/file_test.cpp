@@ -67,6 +67,26 @@ TEST(Checksum, ChecksumFilesReadBackAndRefuseOtherContent) {
     std::ofstream(checksum_path(path)) << bad;
     EXPECT_THROW(read_checksum_file(path), FileError) << bad;
   }
+  // A name with a line break cannot stand in the file's one line: refused, nothing written,
+  // and the message shows the break in one line. A line break in the folder is no matter.
+  for (const std::string name : {"a\nb.qt", "c\rd.qt"}) {
+    const std::string broken = dir.file(name);
+    std::ofstream(broken) << "payload";
+    try {
+      write_checksum_file(broken, hex);
+      ADD_FAILURE() << "no error for " << name;
+    } catch (const FileError& e) {
+      const std::string message = e.what();
+      EXPECT_EQ(message.find_first_of("\n\r"), std::string::npos) << message;
+      EXPECT_NE(message.find("a line break in the name"), std::string::npos) << message;
+    }
+    EXPECT_FALSE(std::filesystem::exists(checksum_path(broken))) << name;
+  }
+  std::filesystem::create_directories(dir.file("line\nbreak"));
+  const std::string inside = dir.file("line\nbreak/e.qt");
+  std::ofstream(inside) << "payload";
+  write_checksum_file(inside, hex);
+  EXPECT_EQ(read_checksum_file(inside), hex);
 }
 
 TEST(AtomicFileWriter, PublishesOnlyOnCommit) {

@@ -27,7 +27,11 @@ std::string file_checksum_hex(const std::string& path);
 // without its folder, as `xxh128sum NAME` prints it, so that `xxh128sum -c` checks it there).
 std::string checksum_path(const std::string& path);
 
-// Writes the checksum file of `path` atomically, saying `hex`.
+// Throws FileError when `path` cannot have a checksum file: its name holds a line break, which
+// the file's one line cannot hold (the message shows the break as \n). Called before any work.
+void check_checksum_file_name(const std::string& path);
+
+// Writes the checksum file of `path` atomically, saying `hex` (check_checksum_file_name first).
 void write_checksum_file(const std::string& path, const std::string& hex);
 
 // The checksum recorded beside `path`, or an empty string when there is none. Throws FileError
