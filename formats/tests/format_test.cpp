@@ -16,7 +16,9 @@
 #include "basis/core/refined_values.h"
 #include "basis/format/qt_file.h"
 #include "basis/format/qt_recipe.h"
+#include "basis/lighting/capture.h"
 #include "basis_generated.h"
+#include "support/environments.h"
 #include "support/temp_dir.h"
 #include "support/test_functions.h"
 
@@ -979,6 +981,28 @@ TEST(QtRecipe, SampleCountsNoCaptureTakesAreRefused) {
           << e.what();
     }
   }
+}
+
+// A capture run stops (std::length_error) once what its file would hold passes max_bytes:
+// every point's position, frame and lights count as well as its tree, so that a run too large
+// for one .qt file fails while it captures rather than when it writes. Checked against the
+// size of the file its set encodes to: below that, less a few kilobytes of header, it stops.
+TEST(QtFormat, CaptureRunsStopBeforeTheirFileOutgrowsItsLimit) {
+  const Environment environment(testing::synthetic_sky());
+  std::vector<SurfacePoint> points;
+  for (int i = 0; i < 400; ++i)
+    points.push_back({Vec3::Zero(), Vec3(std::sin(0.003 * i), 0, std::cos(0.003 * i))});
+  CaptureSetOptions options;
+  options.capture.resolution = 8;
+  options.capture.compact_lights = CaptureOptions::CompactLights::apart;
+  const CaptureSet set = capture_set(environment, nullptr, points, options);
+  ASSERT_GT(set.lights.size(), 0u);
+  const std::size_t file_bytes =
+      encode_capture_set(set.view(), options.projection, test_provenance()).size();
+  options.max_bytes = file_bytes - 4096;
+  EXPECT_THROW(capture_set(environment, nullptr, points, options), std::length_error);
+  options.max_bytes = 2 * file_bytes;
+  EXPECT_NO_THROW(capture_set(environment, nullptr, points, options));
 }
 
 }  // namespace

@@ -300,7 +300,11 @@ CaptureSet capture_set(const Environment& environment, const RayScene* scene,
       projection_ns += std::chrono::duration_cast<std::chrono::nanoseconds>(t2 - t1).count();
       rays += c.stats.rays;
       escaped += c.stats.escaped;
-      bytes += trees[i].words.size() * sizeof(std::uint32_t) + sizeof(TreeExtent);
+      // What the point adds to its file: its tree's words and extent, and its position, normal
+      // and tangent, its lights and their offset, in doubles as files keep them.
+      constexpr std::size_t kVectorBytes = 3 * sizeof(double);
+      bytes += trees[i].words.size() * sizeof(std::uint32_t) + sizeof(TreeExtent) +
+               3 * kVectorBytes + sizeof(std::uint32_t) + lights[i].size() * 2 * kVectorBytes;
       if (bytes > options.max_bytes) too_large = true;
       control.report(++done, count);
     }

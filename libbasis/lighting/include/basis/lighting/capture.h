@@ -103,8 +103,9 @@ struct CaptureSetOptions {
   // worker threads), e.g. to write it out; may be empty.
   std::function<void(std::size_t index, const Grid& grid, std::span<const DirectionalLight> lights)>
       on_grid;
-  // Capturing stops with std::length_error once the trees pass this size (a .qt file holds at
-  // most 2 GiB), before memory runs out.
+  // Capturing stops with std::length_error once what the set's file would hold (every point's
+  // tree, position, frame and lights) passes this size (a .qt file holds at most 2 GiB), before
+  // memory runs out and before the file is written.
   std::size_t max_bytes = std::size_t(2000) << 20;
   // The index of the first point in the whole run (a shard's first point): capture i's jitter
   // depends on the seed and first_index + i, and on_grid is called with that index, so that the
