@@ -1,6 +1,7 @@
 #include "basis/brdf/table_lookup.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
@@ -153,14 +154,18 @@ Convolution reflect_tilted(const BrdfTableView& table, const PackedTreeView& rad
   if (mode == TiltCompensation::reparametrised || tilt.angle() < kUncompensatedTilt) return result;
   if (!table.has_tilt())
     throw std::invalid_argument("the BRDF table holds no tilt derivatives to compensate with");
-  // The first-order correction, from the tilt trees of the entries around wo, bilinearly.
+  // The first-order correction, from the tilt trees of the entries around wo, bilinearly,
+  // summed in double and rounded once: a sum beyond floats is an error, not infinity.
+  std::array<double, 3> corrected{result.value[0], result.value[1], result.value[2]};
   for (const TableTap& tap : table_taps(table.wo_resolution, wo)) {
     if (tap.weights[0] == 0) continue;
     const GroupConvolution d = convolve_groups(table.tilt_entry(tap.i, tap.j), radiance);
     for (int ch = 0; ch < 3; ++ch)
-      result.value[ch] += float(std::numbers::pi * tap.weights[0] *
-                                (tilt.x * d.value[0][ch] + tilt.y * d.value[1][ch]));
+      corrected[ch] += std::numbers::pi * tap.weights[0] *
+                       (tilt.x * double(d.value[0][ch]) + tilt.y * double(d.value[1][ch]));
   }
+  for (int ch = 0; ch < 3; ++ch)
+    result.value[ch] = certified_float(corrected[ch], result.bound[ch]).value;
   return result;
 }
 

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <map>
 #include <numbers>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -147,6 +148,44 @@ TEST(RotationCompensation, LargeTiltsAgainstExactlyRotatedSphericalHarmonics) {
         EXPECT_LT(at("compensated", degrees), at("sh16", degrees)) << degrees;
     }
   }
+}
+
+// The first-order correction is summed in double and rounded once: where it carries a lookup
+// past the largest float, the lookup is std::overflow_error, never infinity. A table whose
+// albedo passes 1 (a user's ks of 40) under radiance bright on one side, the surface tilted
+// towards it (the correction adds a fifth); the radiance is scaled up until the uncorrected lookup
+// nears the largest float.
+TEST(RotationCompensation, CorrectionsBeyondFloatsAreAnErrorNotInfinity) {
+  const Brdf brdf = Phong{{0, 0, 0}, {40, 40, 40}, 10};
+  BrdfTableOptions table_options;
+  table_options.wo_resolution = 5;
+  table_options.wi_resolution = 16;
+  const BrdfTable table = tabulate_brdf(brdf, table_options);
+  const Tilt tilt{0.5, 0};
+  const Vec3 wo(0, 0, 1);
+  int corrected_past_floats = 0;
+  for (double scale = 1e35; scale < 1e38; scale *= 1.01) {
+    Grid grid(16, 3);
+    for (int y = 0; y < 16; ++y)
+      for (int x = 0; x < 16; ++x)
+        for (int c = 0; c < 3; ++c)
+          grid.at(0, c, x, y) = float(scale * (x >= 8 ? 1.0 : 0.01));
+    const PackedTree radiance = pack(project(grid));
+    try {
+      reflect_tilted(table.view(), radiance.view(), wo, tilt, TiltCompensation::reparametrised);
+    } catch (const std::overflow_error&) {
+      break;  // the lookup itself is past floats from here on
+    }
+    try {
+      const Convolution corrected =
+          reflect_tilted(table.view(), radiance.view(), wo, tilt, TiltCompensation::compensated);
+      for (int c = 0; c < 3; ++c)
+        EXPECT_TRUE(std::isfinite(corrected.value[c])) << scale;
+    } catch (const std::overflow_error&) {
+      ++corrected_past_floats;
+    }
+  }
+  EXPECT_GT(corrected_past_floats, 0) << "no scale where only the correction passes floats";
 }
 
 }  // namespace
