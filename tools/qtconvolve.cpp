@@ -22,9 +22,10 @@ namespace {
 
 using basis::cli::UsageError;
 
-// Blocks of at most this many results are computed at a time when an input is a manifest, so
-// that memory stays bounded (a block's dense grids are 192 KiB per 128^2 RGB capture).
-constexpr std::size_t kManifestBlock = 4096;
+// Blocks of at most this many results are computed at a time, so that memory stays bounded
+// whatever the input: a manifest's shards are read block by block, and --dense reconstructs
+// one block's grids at a time (192 KiB per 128^2 RGB capture, 768 MiB a block at most).
+constexpr std::size_t kBlock = 4096;
 // --time stops timing after the block that reaches this many results.
 constexpr std::uint64_t kMostTimedResults = 65536;
 
@@ -278,13 +279,13 @@ int main(int argc, char** argv) {
   app.add_flag("--time", time,
                "report the median time per convolution over repeated runs (of the first 65,536 "
                "results at most)");
-  app.add_flag("--dense", dense,
-               "compute the same results with vectorised dense products of every tree's "
-               "full-resolution reconstruction (built before timing; untilted lookups; they "
-               "certify nothing, so no bound is printed); with "
-               "--time, the trees are timed in the same run, five runs of each in pairs (the order "
-               "swapped from pair to pair), and both are reported with the median of the pairs' "
-               "ratios");
+  app.add_flag(
+      "--dense", dense,
+      "compute the same results with vectorised dense products of every tree's "
+      "full-resolution reconstruction (built before timing, 4,096 captures at a time; untilted "
+      "lookups; they certify nothing, so no bound is printed); with --time, the trees are timed "
+      "in the same run, five runs of each in pairs (the order swapped from pair to pair), and "
+      "both are reported with the median of the pairs' ratios");
   app.add_option("--png", png, "draw the capture points from above, coloured by their values");
   app.add_option("--threads", threads, "worker threads for --reference (default: all cores)")
       ->check(CLI::Range(1, 1024));
@@ -369,7 +370,6 @@ int main(int argc, char** argv) {
           basis::shard_range(total, basis::cli::parse_shard_option(shard_text, total, "results"));
     }
     const bool manifests = a.is_manifest() || b.is_manifest();
-    const std::size_t block = manifests ? kManifestBlock : std::size_t(range.count);
 
     Output out(output);
     const bool single = total == 1 && !has_table && !json && !csv;
@@ -400,7 +400,7 @@ int main(int argc, char** argv) {
     bool first_block = true;
     bool warned_tilt = false;
     std::uint64_t done = 0;
-    basis::for_each_block(a, b, range, block, [&](const basis::ConvolutionBlock& blk) {
+    basis::for_each_block(a, b, range, kBlock, [&](const basis::ConvolutionBlock& blk) {
       progress.control().check();
       const basis::FileConvolution trees(blk.a, blk.b, shading, light_brdf,
                                          basis::Evaluation::trees, blk.ranges);

@@ -11,6 +11,8 @@
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <ostream>
+#include <sstream>
+#include <string>
 #include <vector>
 
 #include "basis/brdf/brdf_spec.h"
@@ -375,6 +377,59 @@ TEST(QtconvolveCli, DenseProductsOfDifferentResolutionsAndTiltsPastTheSupportedO
       run_tool("qtconvolve", {"l.qt", "sky.qt", "--normal", "0.1,0,1", "-q"}, dir.path());
   EXPECT_EQ(slight.status, 0) << slight.err;
   EXPECT_EQ(slight.err, "");
+}
+
+// A capture set of more results than one block (4,096) is computed block by block, also with
+// --dense, so that its grids never all sit in memory: every result in order, the dense
+// products (a second implementation) the trees' values, and the results past the first block
+// those of a run that starts there (a shard).
+TEST(QtconvolveCli, LargeSetsAreComputedBlockByBlockAsOneRun) {
+  TempDir dir;
+  make_lambert_table(dir);
+  if (::testing::Test::HasFatalFailure()) return;
+  const std::string scene = std::string(BASIS_SOURCE_DIR) + "/data/scene.obj";
+  ASSERT_EQ(run_tool("capture2qt",
+                     {"--env-constant", "1,0.8,0.6", "--scene", scene, "--sample", "4500", "--res",
+                      "8", "--spp", "1", "-o", "many.qt", "-q"},
+                     dir.path())
+                .status,
+            0);
+  const auto rows = [&](std::vector<std::string> args) {
+    args.insert(args.begin(), {"l.qt", "many.qt", "--wo", "0.3,0.2,0.93", "--csv"});
+    const auto r = run_tool("qtconvolve", args, dir.path());
+    EXPECT_EQ(r.status, 0) << r.err;
+    std::vector<std::vector<double>> table;
+    std::istringstream lines(r.out);
+    for (std::string line; std::getline(lines, line);) {
+      if (line.starts_with("index")) continue;  // the header (a shard after the first has none)
+      std::vector<double> row;
+      std::istringstream fields(line);
+      for (std::string field; std::getline(fields, field, ',');)
+        row.push_back(std::stod(field));
+      table.push_back(row);
+    }
+    return table;
+  };
+  const auto trees = rows({});
+  const auto dense = rows({"--dense"});
+  const auto second_block = rows({"--shard", "1/2"});  // results 2,250 .. 4,499
+  ASSERT_EQ(trees.size(), 4500u);
+  ASSERT_EQ(dense.size(), 4500u);
+  ASSERT_EQ(second_block.size(), 2250u);
+  for (std::size_t k = 0; k < trees.size(); ++k) {
+    ASSERT_EQ(trees[k].size(), 7u) << k;  // index, value and bound
+    ASSERT_EQ(dense[k].size(), 4u) << k;  // index and value
+    EXPECT_EQ(trees[k][0], double(k));
+    EXPECT_EQ(dense[k][0], double(k));
+    // The dense product of the trees' reconstructions: the trees' values up to the rounding of
+    // their shared-exponent words, 2^-9 of the largest channel (4e-3 as elsewhere).
+    const double largest = std::max({trees[k][1], trees[k][2], trees[k][3]});
+    for (int c = 1; c <= 3; ++c)
+      EXPECT_NEAR(dense[k][c], trees[k][c], 4e-3 * largest) << "result " << k << " channel " << c;
+    if (k >= 2250) {
+      EXPECT_EQ(second_block[k - 2250], trees[k]) << k;
+    }
+  }
 }
 
 // A capture set records its map as capture2qt was given it; --reference re-reads it. From a
