@@ -161,6 +161,8 @@ int main(int argc, char** argv) {
                                                               {"--scene", scene_path},
                                                               {"--points", points_path},
                                                               {"--image", image_path}});
+    // A shard's name goes into its checksum file's one line (the default name always fits).
+    if (!shard_text.empty()) basis::check_name_fits_checksum_line(output);
     if (!basis::is_valid_resolution(res))
       throw UsageError("--res must be a power of two from 2 to 512, got " + std::to_string(res));
     const int strata = int(std::lround(std::sqrt(spp)));
@@ -310,7 +312,6 @@ int main(int argc, char** argv) {
     for (const std::string& source : {env_path, scene_path, points_path})
       if (!source.empty()) sources.push_back(source);
     if (recipe.shard) {
-      basis::check_checksum_file_name(output);
       const auto why = basis::why_shard_must_be_made(output, recipe, sources, bound_kind);
       if (skip_existing && !why) {
         if (!quiet)

@@ -28,7 +28,7 @@ void remove_checksum_file(const std::string& path) {
 }  // namespace
 
 void write_shard_file(const std::string& path, std::span<const std::byte> encoded) {
-  check_checksum_file_name(path);
+  check_name_fits_checksum_line(path);
   remove_checksum_file(path);
   write_qt(path, encoded);
   write_checksum_file(path, checksum_hex(encoded));

@@ -999,6 +999,9 @@ TEST(QtFormat, CaptureRunsStopBeforeTheirFileOutgrowsItsLimit) {
   ASSERT_GT(set.lights.size(), 0u);
   const std::size_t file_bytes =
       encode_capture_set(set.view(), options.projection, test_provenance()).size();
+  // The control: the trees alone (in memory, what was counted before) stay under the limit set
+  // below, so that only the points' positions, frames and lights can reach it.
+  ASSERT_LT(set.trees.view().bytes(), file_bytes - 4096);
   options.max_bytes = file_bytes - 4096;
   EXPECT_THROW(capture_set(environment, nullptr, points, options), std::length_error);
   options.max_bytes = 2 * file_bytes;

@@ -391,6 +391,12 @@ TEST(ShardCli, AShardNameWithALineBreakIsRefusedBeforeAnyWork) {
   TempDir dir;
   expect_refusal(capture(dir, with(sample(5), {"--shard", "0/2", "-o", "a\nb.qt"})), 1,
                  "a\\nb.qt: a line break in the name");
+  // Before any input is read: the name is refused, not the missing map.
+  expect_refusal(
+      run_tool("capture2qt",
+               {"--env", "missing.exr", "--at", "0,0,0", "--shard", "0/1", "-o", "c\rd.qt"},
+               dir.path()),
+      1, "c\\rd.qt: a line break in the name");
   EXPECT_TRUE(dir.entries().empty());
 }
 

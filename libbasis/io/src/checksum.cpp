@@ -85,7 +85,7 @@ std::string checksum_path(const std::string& path) {
   return path + ".xxh128";
 }
 
-void check_checksum_file_name(const std::string& path) {
+void check_name_fits_checksum_line(const std::string& path) {
   const std::string name = std::filesystem::path(path).filename().string();
   if (name.find_first_of("\n\r") == std::string::npos) return;
   std::string shown;
@@ -96,7 +96,7 @@ void check_checksum_file_name(const std::string& path) {
 }
 
 void write_checksum_file(const std::string& path, const std::string& hex) {
-  check_checksum_file_name(path);
+  check_name_fits_checksum_line(path);
   const std::string line = hex + "  " + std::filesystem::path(path).filename().string() + "\n";
   write_file_atomically(checksum_path(path), std::as_bytes(std::span(line.data(), line.size())));
 }

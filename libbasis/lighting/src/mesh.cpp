@@ -28,9 +28,9 @@ std::string first_line(const std::string& text) {
   return line;
 }
 
-// The material files an OBJ names, read beside it as tinyobjloader's own reader reads them, but
-// one that is not a regular file is refused by name: a FIFO would block the read for ever, and
-// a folder would be read as an empty file.
+// The material files an OBJ names (mtllib), read with tinyobjloader's MTL reader: a relative
+// name from the OBJ's folder, an absolute one as it is. One that is not a regular file is
+// refused by name: a FIFO would block the read for ever, and a folder would read as empty.
 class MaterialFilesBeside final : public tinyobj::MaterialReader {
  public:
   explicit MaterialFilesBeside(std::filesystem::path folder) : folder_(std::move(folder)) {}
@@ -41,7 +41,7 @@ class MaterialFilesBeside final : public tinyobj::MaterialReader {
     const std::filesystem::path path = folder_ / name;
     std::error_code status_error;
     if (!std::filesystem::exists(path, status_error)) {
-      *warning += "Material file [ " + name + " ] not found beside the OBJ file\n";
+      *warning += "Material file [ " + name + " ] not found (looked for " + path.string() + ")\n";
       return false;
     }
     check_regular_file(path.string(), "a material file");

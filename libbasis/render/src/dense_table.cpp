@@ -2,6 +2,7 @@
 
 #include <Eigen/Core>
 #include <algorithm>
+#include <array>
 #include <numbers>
 
 namespace basis {
@@ -59,7 +60,8 @@ Convolution reflect_tilted_dense(const DenseTable& table, const Grid& radiance,
     wo = tilt_rotation(tilt).transpose() * wo_shading;
     wo.z() = std::max(0.0, wo.z());
   }
-  Convolution result;
+  // Summed in double and rounded once, as the trees' lookups are: beyond floats is an error.
+  std::array<double, 3> value{};
   for (const TableTap& tap : lookup_taps(table.table(), wo, interpolation)) {
     if (!tap.reads_anything()) continue;
     const Grid& entry = table.entry(tap.i, tap.j);
@@ -67,19 +69,21 @@ Convolution reflect_tilted_dense(const DenseTable& table, const Grid& radiance,
       if (tap.weights[g] == 0) continue;
       const Rgb d = group_product(entry, g, radiance);
       for (int c = 0; c < 3; ++c)
-        result.value[c] += float(std::numbers::pi * tap.weights[g] * d[c]);
+        value[c] += std::numbers::pi * tap.weights[g] * d[c];
     }
   }
-  if (mode != TiltCompensation::compensated || tilt.angle() < kUncompensatedTilt) return result;
-  for (const TableTap& tap : table_taps(table.table().wo_resolution, wo)) {
-    if (tap.weights[0] == 0) continue;
-    const Grid& d = table.tilt_entry(tap.i, tap.j);
-    const Rgb dx = group_product(d, 0, radiance_at_tilt_resolution);
-    const Rgb dy = group_product(d, 1, radiance_at_tilt_resolution);
-    for (int c = 0; c < 3; ++c)
-      result.value[c] +=
-          float(std::numbers::pi * tap.weights[0] * (tilt.x * dx[c] + tilt.y * dy[c]));
-  }
+  if (mode == TiltCompensation::compensated && tilt.angle() >= kUncompensatedTilt)
+    for (const TableTap& tap : table_taps(table.table().wo_resolution, wo)) {
+      if (tap.weights[0] == 0) continue;
+      const Grid& d = table.tilt_entry(tap.i, tap.j);
+      const Rgb dx = group_product(d, 0, radiance_at_tilt_resolution);
+      const Rgb dy = group_product(d, 1, radiance_at_tilt_resolution);
+      for (int c = 0; c < 3; ++c)
+        value[c] += std::numbers::pi * tap.weights[0] * (tilt.x * dx[c] + tilt.y * dy[c]);
+    }
+  Convolution result;  // the dense product certifies nothing: no bound
+  for (int c = 0; c < 3; ++c)
+    result.value[c] = certified_float(value[c], 0).value;
   return result;
 }
 

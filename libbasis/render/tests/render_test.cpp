@@ -5,10 +5,13 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <numbers>
+#include <string>
+#include <tuple>
 
 #include "basis/brdf/brdf_sampling.h"
 #include "basis/core/random.h"
@@ -299,6 +302,35 @@ TEST(ImageComparison, RelativeErrorsAreThoseOfTheDefinition) {
 }
 
 // ---------------------------------------------------------------- files
+
+// Material files are read beside the OBJ (a relative name from its folder, an absolute one as
+// it is), their emission taken per face; one that is not there is a warning naming it, and its
+// faces emit nothing.
+TEST(TriangleMesh, MaterialFilesAreReadBesideTheObjOrWhereAnAbsoluteNameSays) {
+  TempDir dir;
+  std::filesystem::create_directories(dir.file("scenes"));
+  std::filesystem::create_directories(dir.file("elsewhere"));
+  write_text(dir.file("scenes/lamp.mtl"), "newmtl glow\nKe 2 3 4\n");
+  write_text(dir.file("elsewhere/far.mtl"), "newmtl glow\nKe 5 6 7\n");
+  write_text(dir.file("up.mtl"), "newmtl glow\nKe 1 0.5 0.25\n");
+  const std::string face = "v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl glow\nf 1 2 3\n";
+  const std::string absolute = std::filesystem::absolute(dir.file("elsewhere/far.mtl")).string();
+  for (const auto& [name, library, emission] :
+       {std::tuple<std::string, std::string, Color>{"beside", "lamp.mtl", {2, 3, 4}},
+        {"absolute", absolute, {5, 6, 7}},
+        {"up", "../up.mtl", {1, 0.5f, 0.25f}},
+        {"missing", "gone.mtl", {0, 0, 0}}}) {
+    write_text(dir.file("scenes/" + name + ".obj"), "mtllib " + library + "\n" + face);
+    const TriangleMesh mesh = read_obj(dir.file("scenes/" + name + ".obj"));
+    ASSERT_EQ(mesh.emission.size(), 1u) << name;
+    EXPECT_EQ(mesh.emission[0], emission) << name;
+    const bool warned = std::any_of(mesh.reader_warnings.begin(), mesh.reader_warnings.end(),
+                                    [&](const std::string& w) {
+                                      return w.find("[ gone.mtl ] not found") != std::string::npos;
+                                    });
+    EXPECT_EQ(warned, name == "missing") << name;
+  }
+}
 
 TEST(TriangleMesh, VertexNormalsAreInterpolatedAcrossTriangles) {
   TempDir dir;

@@ -3,7 +3,9 @@
 // over the environment map's pixels.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <numbers>
 #include <stdexcept>
@@ -163,26 +165,38 @@ TEST(RotationCompensation, CorrectionsBeyondFloatsAreAnErrorNotInfinity) {
   const BrdfTable table = tabulate_brdf(brdf, table_options);
   const Tilt tilt{0.5, 0};
   const Vec3 wo(0, 0, 1);
-  int corrected_past_floats = 0;
-  for (double scale = 1e35; scale < 1e38; scale *= 1.01) {
+  const auto radiance_at = [](double scale) {
     Grid grid(16, 3);
     for (int y = 0; y < 16; ++y)
       for (int x = 0; x < 16; ++x)
         for (int c = 0; c < 3; ++c)
           grid.at(0, c, x, y) = float(scale * (x >= 8 ? 1.0 : 0.01));
-    const PackedTree radiance = pack(project(grid));
+    return pack(project(grid));
+  };
+  // The lookup is linear in the radiance: at unit scale it gives the value that every scale
+  // multiplies, the reference each lookup is held to, up to the rounding of the trees' values
+  // (halves, 2^-11 of each, and a tree's scale: within 1e-3).
+  const Convolution unit =
+      reflect_tilted(table.view(), radiance_at(1).view(), wo, tilt, TiltCompensation::compensated);
+  constexpr double kLargest = std::numeric_limits<float>::max();
+  int corrected_past_floats = 0;
+  for (double scale = 1e35; scale < 1e38; scale *= 1.01) {
+    const PackedTree radiance = radiance_at(scale);
     try {
       reflect_tilted(table.view(), radiance.view(), wo, tilt, TiltCompensation::reparametrised);
     } catch (const std::overflow_error&) {
       break;  // the lookup itself is past floats from here on
     }
+    const double largest_expected = scale * std::max({unit.value[0], unit.value[1], unit.value[2]});
     try {
       const Convolution corrected =
           reflect_tilted(table.view(), radiance.view(), wo, tilt, TiltCompensation::compensated);
       for (int c = 0; c < 3; ++c)
-        EXPECT_TRUE(std::isfinite(corrected.value[c])) << scale;
+        EXPECT_NEAR(corrected.value[c], scale * unit.value[c], 1e-3 * scale * unit.value[c])
+            << scale;
     } catch (const std::overflow_error&) {
       ++corrected_past_floats;
+      EXPECT_GT(largest_expected, kLargest * (1 - 1e-3)) << "refused within floats at " << scale;
     }
   }
   EXPECT_GT(corrected_past_floats, 0) << "no scale where only the correction passes floats";

@@ -95,7 +95,8 @@ inline constexpr double kLargestTilt = 1.5707963267948966;
 // term; the compensation itself is a first-order estimate, interpolated bilinearly between
 // entries. Compensation needs a table with tilt derivatives; std::invalid_argument otherwise,
 // and for wo_shading below the horizon, zero or not finite, or a tilt not finite or beyond
-// kLargestTilt.
+// kLargestTilt. A value beyond the largest float, the compensation's included, is
+// std::overflow_error.
 Convolution reflect_tilted(const BrdfTableView& table, const PackedTreeView& radiance,
                            const Vec3& wo_shading, const Tilt& tilt, TiltCompensation mode,
                            const LookupOptions& options = {});

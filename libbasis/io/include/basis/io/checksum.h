@@ -27,11 +27,13 @@ std::string file_checksum_hex(const std::string& path);
 // without its folder, as `xxh128sum NAME` prints it, so that `xxh128sum -c` checks it there).
 std::string checksum_path(const std::string& path);
 
-// Throws FileError when `path` cannot have a checksum file: its name holds a line break, which
-// the file's one line cannot hold (the message shows the break as \n). Called before any work.
-void check_checksum_file_name(const std::string& path);
+// Throws FileError when `path`'s file name cannot stand in its checksum file's one line: it
+// holds a line break (\n or \r). The message shows each break escaped, so that it stays one
+// line.
+void check_name_fits_checksum_line(const std::string& path);
 
-// Writes the checksum file of `path` atomically, saying `hex` (check_checksum_file_name first).
+// Writes the checksum file of `path` atomically, saying `hex` (check_name_fits_checksum_line
+// first).
 void write_checksum_file(const std::string& path, const std::string& hex);
 
 // The checksum recorded beside `path`, or an empty string when there is none. Throws FileError

@@ -57,10 +57,12 @@ inline constexpr std::uintmax_t kMaxObjBytes = std::uintmax_t(4) << 30;
 inline constexpr double kLargestEmission = 1e30;
 
 // Reads an OBJ file (and its MTL materials) with tinyobjloader; polygons are triangulated.
-// Throws FileError for unreadable files, NaN or infinite vertices, indices out of range, an
-// emission (Ke) beyond kLargestEmission, or a mesh with no triangles. Degenerate triangles are
-// dropped and counted. Vertex normals that are not finite or zero count as absent (the face's
-// normal stands in).
+// Material files are looked for from the OBJ's folder (an absolute name as it is); one that is
+// missing is a reader warning, its faces emitting nothing. Throws FileError for unreadable
+// files, a material file that is not a regular file, NaN or infinite vertices, indices out of
+// range, an emission (Ke) beyond kLargestEmission, or a mesh with no triangles. Degenerate
+// triangles are dropped and counted. Vertex normals that are not finite or zero count as absent
+// (the face's normal stands in).
 TriangleMesh read_obj(const std::string& path);
 
 // `count` points uniformly distributed over the mesh's area, each with its triangle's normal
