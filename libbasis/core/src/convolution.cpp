@@ -40,11 +40,15 @@ inline void check_compatible(const QuadtreeShape& a, const QuadtreeShape& b) {
 
 using detail::ScalarSums;
 
-// The bound of a stopped pair of float trees: min(ea eb, ea |b|, eb |a|).
+// The bound of a stopped pair of float trees: min(ea eb, ea |b|, eb |a|), each alternative only
+// where that side is known to be >= 0 (elsewhere the mean of |B| may exceed |b|; taking eb in
+// place of |b| leaves the product term).
 auto float_pair_bound(const QuadtreeView& a, const QuadtreeView& b) {
   return [&a, &b](int na, int nb, int ca, int cb, int q, double va, double vb) {
     const double ea = a.error(na, ca, q), eb = b.error(nb, cb, q);
-    return std::min({ea * eb, ea * std::abs(vb), eb * std::abs(va)});
+    const double abs_a = a.non_negative() ? std::abs(va) : ea;
+    const double abs_b = b.non_negative() ? std::abs(vb) : eb;
+    return std::min({ea * eb, ea * abs_b, eb * abs_a});
   };
 }
 
@@ -91,7 +95,9 @@ class SseDescent {
         stride_a_(a.shape().stride()),
         stride_b_(b.shape().stride()),
         error_stride_a_(a.shape().error_stride()),
-        error_stride_b_(b.shape().error_stride()) {}
+        error_stride_b_(b.shape().error_stride()),
+        non_negative_a_(a.non_negative()),
+        non_negative_b_(b.non_negative()) {}
 
   // Integral over the cell of nodes (root_a, root_b), whose quadrants have area quadrant_area.
   Sums run(std::int32_t root_a, std::int32_t root_b, float quadrant_area, int depth = 0) const {
@@ -130,9 +136,11 @@ class SseDescent {
           const __m128 va = _mm_load_ps(qa[1 + (CA == 1 ? 0 : c)].lane);
           const __m128 ea = _mm_load_ps(errors_a_[na * error_stride_a_ + (CA == 1 ? 0 : c)].lane);
           const __m128 eb = _mm_load_ps(errors_b_[nb * error_stride_b_ + (CB == 1 ? 0 : c)].lane);
-          const __m128 term =
-              _mm_min_ps(_mm_mul_ps(ea, eb),
-                         _mm_min_ps(_mm_mul_ps(ea, abs_ps(vb)), _mm_mul_ps(eb, abs_ps(va))));
+          // |b| only where b is known to be >= 0, else eb (float_pair_bound); likewise a.
+          const __m128 abs_a = non_negative_a_ ? abs_ps(va) : ea;
+          const __m128 abs_b = non_negative_b_ ? abs_ps(vb) : eb;
+          const __m128 term = _mm_min_ps(_mm_mul_ps(ea, eb),
+                                         _mm_min_ps(_mm_mul_ps(ea, abs_b), _mm_mul_ps(eb, abs_a)));
           bound[c] = _mm_add_ps(bound[c], _mm_mul_ps(term, leaf_area));
         }
       }
@@ -213,6 +221,7 @@ class SseDescent {
   const Quad* errors_b_;
   std::size_t stride_a_, stride_b_;
   std::size_t error_stride_a_, error_stride_b_;
+  bool non_negative_a_, non_negative_b_;
 };
 
 template <int CA, int CB, int GA, bool kBound>

@@ -291,6 +291,8 @@ void QuadtreeProjector::cut(const Grid& grid, std::span<const float> tolerances,
                             Quadtree& out) {
   const int channels = grid.channels;
   out.shape = QuadtreeShape{grid.resolution, channels, grid.groups, bounded_ / channels};
+  const auto group0 = std::span(grid.texels).first(grid.plane_size() * std::size_t(channels));
+  out.non_negative = std::ranges::all_of(group0, [](float t) { return t >= 0; });
   const std::size_t stride = out.shape.stride();
   std::size_t count = 0;
   pending_.clear();

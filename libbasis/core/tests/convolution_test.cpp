@@ -105,6 +105,50 @@ TEST_P(ConvolutionProperties, SimdAgreesWithScalar) {
     }
 }
 
+// Functions of either sign: a quadrant's largest deviation times the other side's |mean|
+// bounds the pair only where that side is >= 0 (the mean of |B| is |b| there, and can be far
+// larger where B changes sign), so signed trees are certified by the product of the deviations.
+// A checkerboard of +-1 (mean 0) against 1 + the same checkerboard, and smooth signed waves,
+// cut coarse, against their dense product.
+TEST(Convolution, SignedFunctionsStayWithinTheirBound) {
+  const int n = 16;
+  Grid checker(n, 1), shifted(n, 1), wave(n, 1), tilted_wave(n, 1);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const float sign = (x + y) % 2 == 0 ? 1.0f : -1.0f;
+      checker.at(0, 0, x, y) = sign + 0.125f;
+      shifted.at(0, 0, x, y) = 1.0f + sign;
+      wave.at(0, 0, x, y) = float(std::sin(0.9 * x) * std::cos(0.7 * y));
+      tilted_wave.at(0, 0, x, y) = float(0.2 + std::sin(0.9 * x + 0.3) * std::cos(0.7 * y));
+    }
+  const std::vector<const Grid*> grids = {&checker, &shifted, &wave, &tilted_wave};
+  for (std::size_t i = 0; i < grids.size(); ++i)
+    for (std::size_t j = 0; j < grids.size(); ++j)
+      for (double tolerance : {0.25, 1.0, 2.5}) {
+        const ProjectionOptions cut{.tolerance = tolerance,
+                                    .mode = ProjectionOptions::Mode::absolute};
+        const Quadtree a = project(*grids[i], cut), b = project(*grids[j], cut);
+        const double exact = dense_product({grids[i], grids[j]}, 0, 0);
+        for (const Convolution& conv :
+             {convolve(a.view(), b.view()), convolve_scalar(a.view(), b.view())})
+          EXPECT_LE(std::abs(conv.value[0] - exact), conv.bound[0] + 1e-6)
+              << "grids " << i << ", " << j << " tolerance " << tolerance << ": value "
+              << conv.value[0] << ", exact " << exact << ", bound " << conv.bound[0];
+        const GroupConvolution groups = convolve_groups(a.view(), b.view());
+        EXPECT_LE(std::abs(groups.value[0][0] - exact), groups.bound[0] + 1e-6)
+            << "groups of grids " << i << ", " << j << " tolerance " << tolerance;
+        // Packed with largest-deviation bounds, the same trees in halves.
+        const PackedTree pa = pack(a, BoundKind::linf), pb = pack(b, BoundKind::linf);
+        const Convolution packed = convolve(pa.view(), pb.view());
+        EXPECT_LE(std::abs(packed.value[0] - exact), packed.bound[0] + 1e-6)
+            << "packed grids " << i << ", " << j << " tolerance " << tolerance;
+      }
+  // Which trees take |value| in their bound: those made from texels that are all >= 0.
+  EXPECT_FALSE(project(checker).non_negative);
+  EXPECT_TRUE(project(shifted).non_negative);
+  EXPECT_FALSE(project(wave).non_negative);
+}
+
 INSTANTIATE_TEST_SUITE_P(Shapes, ConvolutionProperties,
                          ::testing::Values(Case{32, 32, 1, 1}, Case{32, 32, 3, 3},
                                            Case{16, 16, 1, 3}, Case{64, 64, 3, 1},

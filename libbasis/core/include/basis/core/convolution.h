@@ -29,7 +29,8 @@ struct Convolution {
 // different resolutions convolve as the piecewise-constant functions they are. The value is
 // exact for the two trees; the bound covers the difference to the product of the source grids:
 // on every quadrant where the descent stops it adds area * min(ea * eb, ea * |b|, eb * |a|),
-// ea, eb the quadrants' error bounds, valid for non-negative functions.
+// ea, eb the quadrants' error bounds; ea * |b| only when b is known to be >= 0
+// (QuadtreeView::non_negative), eb * |a| likewise, so that it holds for functions of any sign.
 // For the hemisphere integral of A * B * cos in the cosine-weighted map, multiply by pi.
 Convolution convolve(const QuadtreeView& a, const QuadtreeView& b);
 

@@ -45,13 +45,18 @@ inline constexpr int kMaxTreeLevels = 9;
 class QuadtreeView {
  public:
   QuadtreeView() = default;
-  QuadtreeView(QuadtreeShape shape, std::span<const Quad> nodes, std::span<const Quad> errors)
-      : shape_(shape), nodes_(nodes), errors_(errors) {}
+  // non_negative: whether every texel of group 0 is known to be >= 0 (Quadtree::non_negative).
+  QuadtreeView(QuadtreeShape shape, std::span<const Quad> nodes, std::span<const Quad> errors,
+               bool non_negative = false)
+      : shape_(shape), nodes_(nodes), errors_(errors), non_negative_(non_negative) {}
 
   const QuadtreeShape& shape() const { return shape_; }
   int node_count() const { return int(nodes_.size() / shape_.stride()); }
   std::span<const Quad> nodes() const { return nodes_; }
   std::span<const Quad> errors() const { return errors_; }
+  // Whether every texel of group 0 is known to be >= 0: only then is the mean of |texel| over a
+  // quadrant its |value|, which convolution's largest-deviation bound takes (convolution.h).
+  bool non_negative() const { return non_negative_; }
 
   // Child link of quadrant q of node n: 0 for a leaf.
   std::int32_t child(int node, int quadrant) const;
@@ -74,6 +79,7 @@ class QuadtreeView {
   QuadtreeShape shape_;
   std::span<const Quad> nodes_;
   std::span<const Quad> errors_;
+  bool non_negative_ = false;
 };
 
 // An owning quadtree. `deviations`, laid out like `errors`, holds for each quadrant the RMS
@@ -85,8 +91,10 @@ struct Quadtree {
   std::vector<Quad> nodes;
   std::vector<Quad> errors;
   std::vector<Quad> deviations;
+  // Whether every texel of group 0 the tree was made from is >= 0 (projection sets it).
+  bool non_negative = false;
 
-  QuadtreeView view() const { return {shape, nodes, errors}; }
+  QuadtreeView view() const { return {shape, nodes, errors, non_negative}; }
   int node_count() const { return int(nodes.size() / shape.stride()); }
 };
 
