@@ -193,8 +193,10 @@ int main(int argc, char** argv) {
       basis::cli::check_output_place(output);
       const basis::Grid grid = basis::image_to_grid(basis::read_image(image_path), image_path);
       basis::Quadtree tree;
+      basis::PackedTree packed;
       try {
         tree = basis::project(grid, recipe.projection);
+        packed = basis::pack_exact_texels(tree, bound_kind);
       } catch (const std::overflow_error& e) {
         throw basis::FileError(image_path + ": radiance too large: " + e.what());
       }
@@ -202,7 +204,7 @@ int main(int argc, char** argv) {
                                                  {"mode", absolute ? "absolute" : "relative"}};
       basis::write_qt(
           output, basis::encode_tree(
-                      basis::pack_exact_texels(tree, bound_kind).view(), recipe.projection,
+                      packed.view(), recipe.projection,
                       {"capture2qt", basis::kVersion, basis::json_text(parameters), {image_path}}));
       if (json)
         std::cout << basis::json_text(nlohmann::ordered_json{{"output", output},

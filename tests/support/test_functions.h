@@ -101,4 +101,16 @@ inline Grid one_way_rounding_grid(int n) {
   return g;
 }
 
+// A grey grid of n^2 texels that cancel: +10^6, 0.3, 0.3 and -10^6 in every 2 x 2 cell (mean
+// 0.15), which float sums of the cells lose (10^6 + 0.3 rounds to 1000000.3125).
+inline Grid cancelling_grid(int n) {
+  Grid g(n, 1);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const int k = x % 2 + 2 * (y % 2);
+      g.at(0, 0, x, y) = k == 0 ? 1e6f : k == 3 ? -1e6f : 0.3f;
+    }
+  return g;
+}
+
 }  // namespace basis::testing

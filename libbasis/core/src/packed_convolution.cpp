@@ -33,8 +33,10 @@ void check_compatible(const PackedShape& a, const PackedShape& b) {
 // kHalfSubnormalRounding (packed_tree.h).
 // Summed over the stopped pairs, the rounding terms |a| db + |b| da are at most
 // kRoundingPerMagnitude x (the sum of area |a b|) + kRoundingFloor, in units of the value scales:
-// values in those units lie below 2^15, so |a| 2^-25 <= 2^-10 and the areas add up to 1.
-constexpr double kRoundingPerMagnitude = 2 * kHalfRounding, kRoundingFloor = 0x1p-9;
+// values in those units lie below 2^15, so |a| 2^-25 <= 2^-10 and the areas add up to 1. The
+// averages that were rounded are themselves floats, within half a float step (2^-24) of their
+// texels' mean (projection.h): the factor 1 + 2^-10 covers that on both sides.
+constexpr double kRoundingPerMagnitude = 2 * kHalfRounding * (1 + 0x1p-10), kRoundingFloor = 0x1p-9;
 
 // Tree a as the scalar descent reads it: one group, or several combined with weights into one
 // function, whose value is sum_g w_g a_g, whose bounds are sum_g |w_g| times the groups' (the

@@ -18,78 +18,62 @@ int log2_of(int n) {
   return std::countr_zero(unsigned(n));
 }
 
-// Level k-1 from level k (side `fine`): averages of 2 x 2 children, and for bounded planes the
-// paper's error bound max - min + max(child error) (child errors absent at the texel level).
+// The smallest float at least x (x >= 0, computed in double with a margin for its own rounding):
+// the nearest float, or the next one up when that lies below. 0 stays 0.
+float float_at_least(double x) {
+  const double safe = x + x * 0x1p-50;
+  const float nearest = float(safe);
+  if (double(nearest) >= safe) return nearest;
+  return std::bit_cast<float>(std::bit_cast<std::uint32_t>(nearest) + 1);
+}
+
+// The paper's error bound of level k-1 from level k (side `fine`): max - min of the 2 x 2
+// children plus the largest child error (child errors absent at the texel level), rounded up.
 void build_level(const float* __restrict src, const float* __restrict src_error, int fine,
-                 float* __restrict dst, float* __restrict dst_error) {
+                 float* __restrict dst_error) {
   const int coarse = fine / 2;
   for (int y = 0; y < coarse; ++y) {
     const float* __restrict r0 = src + std::size_t(2 * y) * fine;
     const float* __restrict r1 = r0 + fine;
-    float* __restrict d = dst + std::size_t(y) * coarse;
-    for (int x = 0; x < coarse; ++x)
-      d[x] = ((r0[2 * x] + r0[2 * x + 1]) + (r1[2 * x] + r1[2 * x + 1])) * 0.25f;
-    if (!dst_error) continue;
+    const float* __restrict e0 = src_error ? src_error + std::size_t(2 * y) * fine : nullptr;
+    const float* __restrict e1 = src_error ? e0 + fine : nullptr;
     float* __restrict de = dst_error + std::size_t(y) * coarse;
     for (int x = 0; x < coarse; ++x) {
       const float a = r0[2 * x], b = r0[2 * x + 1], c = r1[2 * x], e = r1[2 * x + 1];
-      de[x] = std::max(std::max(a, b), std::max(c, e)) - std::min(std::min(a, b), std::min(c, e));
+      double bound = double(std::max(std::max(a, b), std::max(c, e))) -
+                     double(std::min(std::min(a, b), std::min(c, e)));
+      if (src_error)
+        bound += double(
+            std::max(std::max(e0[2 * x], e0[2 * x + 1]), std::max(e1[2 * x], e1[2 * x + 1])));
+      de[x] = float_at_least(bound);
     }
-    if (!src_error) continue;
-    const float* __restrict e0 = src_error + std::size_t(2 * y) * fine;
-    const float* __restrict e1 = e0 + fine;
-    for (int x = 0; x < coarse; ++x)
-      de[x] += std::max(std::max(e0[2 * x], e0[2 * x + 1]), std::max(e1[2 * x], e1[2 * x + 1]));
   }
 }
 
-// Level k-1 from level k for a bounded plane with exact bounds: averages, the smallest and
-// largest texel under each cell (from the children's, or the texels themselves at the finest
-// level where lo and hi are null), and the error max(hi - average, average - lo).
-void build_level_exact(const float* __restrict src, const float* src_lo, const float* src_hi,
-                       int fine, float* __restrict dst, float* __restrict dst_lo,
+// Level k-1 from level k for a bounded plane with exact bounds, its averages `average` given:
+// the smallest and largest texel under each cell (from the children's, or the texels themselves
+// at the finest level where lo and hi are null), and the error max(hi - average, average - lo),
+// rounded up.
+void build_level_exact(const float* src_lo, const float* src_hi, int fine,
+                       const float* __restrict average, float* __restrict dst_lo,
                        float* __restrict dst_hi, float* __restrict dst_error) {
-  if (!src_lo) src_lo = src_hi = src;
   const int coarse = fine / 2;
-  if (coarse <= 8) {  // short rows: one fused scalar loop beats four vector loops' set-up
-    for (int y = 0; y < coarse; ++y) {
-      const std::size_t r0 = std::size_t(2 * y) * fine, r1 = r0 + fine;
-      for (int x = 0; x < coarse; ++x) {
-        const std::size_t i = r0 + 2 * x, j = r1 + 2 * x, o = std::size_t(y) * coarse + x;
-        const float average = ((src[i] + src[i + 1]) + (src[j] + src[j + 1])) * 0.25f;
-        const float lo =
-            std::min(std::min(src_lo[i], src_lo[i + 1]), std::min(src_lo[j], src_lo[j + 1]));
-        const float hi =
-            std::max(std::max(src_hi[i], src_hi[i + 1]), std::max(src_hi[j], src_hi[j + 1]));
-        dst[o] = average;
-        dst_lo[o] = lo;
-        dst_hi[o] = hi;
-        dst_error[o] = std::max(hi - average, average - lo);
-      }
-    }
-    return;
-  }
-  // Long rows: one quantity per loop, so that each vectorises.
   for (int y = 0; y < coarse; ++y) {
     const std::size_t r0 = std::size_t(2 * y) * fine, r1 = r0 + fine, o = std::size_t(y) * coarse;
-    const float* __restrict a0 = src + r0;
-    const float* __restrict a1 = src + r1;
     const float* l0 = src_lo + r0;
     const float* l1 = src_lo + r1;
     const float* h0 = src_hi + r0;
     const float* h1 = src_hi + r1;
-    float* __restrict average = dst + o;
     float* __restrict lo = dst_lo + o;
     float* __restrict hi = dst_hi + o;
     float* __restrict error = dst_error + o;
-    for (int x = 0; x < coarse; ++x)
-      average[x] = ((a0[2 * x] + a0[2 * x + 1]) + (a1[2 * x] + a1[2 * x + 1])) * 0.25f;
     for (int x = 0; x < coarse; ++x)
       lo[x] = std::min(std::min(l0[2 * x], l0[2 * x + 1]), std::min(l1[2 * x], l1[2 * x + 1]));
     for (int x = 0; x < coarse; ++x)
       hi[x] = std::max(std::max(h0[2 * x], h0[2 * x + 1]), std::max(h1[2 * x], h1[2 * x + 1]));
     for (int x = 0; x < coarse; ++x)
-      error[x] = std::max(hi[x] - average[x], average[x] - lo[x]);
+      error[x] = float_at_least(
+          std::max(double(hi[x]) - double(average[o + x]), double(average[o + x]) - double(lo[x])));
   }
 }
 
@@ -204,21 +188,49 @@ void QuadtreeProjector::build_levels(const Grid& grid, const ProjectionOptions& 
     offset += cells;
   }
 
+  build_means(grid);
   for (int k = levels_; k >= 1; --k)
-    for (int p = 0; p < planes_; ++p) {
+    for (int p = 0; p < bounded_; ++p) {
       const bool texels = k == levels_;
-      if (exact && p < bounded_)
-        build_level_exact(values(grid, k, p), texels ? nullptr : extremes(k, p, 0),
-                          texels ? nullptr : extremes(k, p, 1), 1 << k, scratch_values(k - 1, p),
-                          extremes(k - 1, p, 0), extremes(k - 1, p, 1), errors(k - 1, p));
+      if (exact)
+        build_level_exact(texels ? values(grid, k, p) : extremes(k, p, 0),
+                          texels ? values(grid, k, p) : extremes(k, p, 1), 1 << k,
+                          values(grid, k - 1, p), extremes(k - 1, p, 0), extremes(k - 1, p, 1),
+                          errors(k - 1, p));
       else
-        build_level(values(grid, k, p), p < bounded_ && !texels ? errors(k, p) : nullptr, 1 << k,
-                    scratch_values(k - 1, p), p < bounded_ ? errors(k - 1, p) : nullptr);
+        build_level(values(grid, k, p), texels ? nullptr : errors(k, p), 1 << k, errors(k - 1, p));
     }
   build_deviations(grid);
   // Averages and bounds of texels near the float range can overflow it.
   if (!all_finite(value_storage_) || !all_finite(error_storage_) || !all_finite(deviation_storage_))
     throw std::overflow_error("averages or error bounds of texels overflow float (largest 3.4e38)");
+}
+
+void QuadtreeProjector::build_means(const Grid& grid) {
+  // Bottom-up in double, so that texels of either sign that cancel lose nothing to the float
+  // sums of each level; each cell's mean is then rounded once to the nearest float.
+  std::vector<double>& fine = moments_[0];
+  std::vector<double>& coarse = moments_[2];
+  for (int p = 0; p < planes_; ++p) {
+    const std::span<const float> texels = grid.plane(p / channels_, p % channels_);
+    fine.assign(texels.begin(), texels.end());
+    for (int k = levels_; k >= 1; --k) {
+      const int side = 1 << k, half = side / 2;
+      coarse.resize(std::size_t(half) * std::size_t(half));
+      float* stored = scratch_values(k - 1, p);
+      for (int y = 0; y < half; ++y) {
+        const double* r0 = fine.data() + std::size_t(2 * y) * side;
+        const double* r1 = r0 + side;
+        const std::size_t row = std::size_t(y) * half;
+        for (int x = 0; x < half; ++x) {
+          const double mean = ((r0[2 * x] + r0[2 * x + 1]) + (r1[2 * x] + r1[2 * x + 1])) * 0.25;
+          coarse[row + x] = mean;
+          stored[row + x] = float(mean);
+        }
+      }
+      fine.swap(coarse);
+    }
+  }
 }
 
 void QuadtreeProjector::build_deviations(const Grid& grid) {
@@ -273,12 +285,8 @@ void QuadtreeProjector::build_deviations(const Grid& grid) {
           const double offset_from_stored = m - double(stored[row + x]);
           const double rms =
               std::sqrt(m2 * inverse_texels + offset_from_stored * offset_from_stored);
-          // A margin far above double rounding, then the next float up (safe is not negative,
-          // so the next float is one more in the bits).
-          const double safe = rms + 1e-12 * (std::abs(m) + rms);
-          const float nearest = float(safe);
-          const float above = std::bit_cast<float>(std::bit_cast<std::uint32_t>(nearest) + 1);
-          deviation[row + x] = double(nearest) < safe ? above : nearest;
+          // A margin far above double rounding, then rounded up to a float.
+          deviation[row + x] = float_at_least(rms + 1e-12 * (std::abs(m) + rms));
         }
       }
       from = 2 - from;

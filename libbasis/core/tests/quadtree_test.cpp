@@ -3,9 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstddef>
 #include <cstring>
+#include <random>
 
 #include "basis/core/projection.h"
 #include "support/test_functions.h"
@@ -155,6 +157,56 @@ TEST_P(QuadtreeProperties, ExactBoundsNeverNeedMoreNodesThanThePapers) {
 INSTANTIATE_TEST_SUITE_P(Resolutions, QuadtreeProperties,
                          ::testing::Combine(::testing::Values(2, 8, 32, 64),
                                             ::testing::Values(1, 3)));
+
+// Texels of either sign whose magnitudes cancel (+-10^6 beside 0.3 in every 2 x 2 cell, and
+// random mixtures from 10^-3 to 10^6): every stored average lies within half a float step of
+// its texels' mean (summed here in long double; up to 2^-48 of the largest texel for the double
+// sums of nine levels), and every stored error bound is at least the
+// largest |texel - stored average| (exactly, in double), for both kinds of bound. Averages
+// summed in floats level by level put the 2 x 2 cells' mean 0.15 at 0.15625.
+TEST(Quadtree, AveragesOfTexelsThatCancelAreTheirMeans) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> exponent(-3, 6), unit(0, 1);
+  for (int n : {2, 8, 64}) {
+    const Grid cells = testing::cancelling_grid(n);
+    Grid mixture(n, 3);
+    for (float& t : mixture.texels)
+      t = float((unit(rng) < 0.5 ? -1 : 1) * std::pow(10.0, exponent(rng)));
+    for (const Grid* grid : std::array<const Grid*, 2>{&cells, &mixture})
+      for (const auto bound : {ProjectionOptions::Bound::exact, ProjectionOptions::Bound::paper}) {
+        const Quadtree tree = project(*grid, {.tolerance = 0, .bound = bound});
+        const QuadtreeView view = tree.view();
+        auto visit = [&](auto&& self, int node, int x0, int y0, int size) -> void {
+          const int half = size / 2;
+          for (int q = 0; q < 4; ++q) {
+            const int qx = x0 + (q & 1) * half, qy = y0 + (q >> 1) * half;
+            for (int c = 0; c < grid->channels; ++c) {
+              const float v = view.value(node, 0, c, q);
+              long double sum = 0;
+              double largest = 0, deviation = 0;
+              for (int y = qy; y < qy + half; ++y)
+                for (int x = qx; x < qx + half; ++x) {
+                  sum += grid->at(0, c, x, y);
+                  largest = std::max(largest, double(std::abs(grid->at(0, c, x, y))));
+                  deviation =
+                      std::max(deviation, std::abs(double(grid->at(0, c, x, y)) - double(v)));
+                }
+              const double mean = double(sum / (double(half) * half));
+              const double half_step =
+                  0.5 * double(std::nextafter(std::abs(v), INFINITY) - std::abs(v));
+              ASSERT_LE(std::abs(double(v) - mean), half_step + 0x1p-48 * largest)
+                  << "n " << n << " node " << node << " quadrant " << q << ": " << v
+                  << " against the mean " << mean;
+              ASSERT_GE(double(view.error(node, c, q)), deviation)
+                  << "n " << n << " node " << node << " quadrant " << q;
+            }
+            if (const int child = view.child(node, q)) self(self, child, qx, qy, half);
+          }
+        };
+        visit(visit, 0, 0, 0, n);
+      }
+  }
+}
 
 TEST(Quadtree, ConstantFunctionIsASingleNode) {
   for (int n : {2, 32, 512}) {

@@ -289,11 +289,11 @@ CaptureSet capture_set(const Environment& environment, const RayScene* scene,
         projection.extra_mean[c] += lights_mean[c];
       try {
         projector.project(c.texels, projection, tree);
+        trees[i] = pack_exact_texels(tree, options.bounds);
       } catch (const std::overflow_error& e) {
         throw std::overflow_error(environment.name() +
                                   ": radiance too large for captures: " + e.what());
       }
-      trees[i] = pack_exact_texels(tree, options.bounds);
       const auto t2 = std::chrono::steady_clock::now();
       if (options.on_grid) options.on_grid(options.first_index + i, c.texels, lights[i]);
       capture_ns += std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - t0).count();

@@ -27,7 +27,9 @@ struct Convolution {
 
 // Channel counts must be equal or one of them 1 (a grey function against RGB). Trees of
 // different resolutions convolve as the piecewise-constant functions they are. The value is
-// exact for the two trees; the bound covers the difference to the product of the source grids:
+// the two trees' integral, summed in floats (whose rounding, about 2^-24 of the magnitudes
+// summed per addition, neither it nor the bound accounts for: packed trees' descents do); the
+// bound covers the difference to the product of the source grids:
 // on every quadrant where the descent stops it adds area * min(ea * eb, ea * |b|, eb * |a|),
 // ea, eb the quadrants' error bounds; ea * |b| only when b is known to be >= 0
 // (QuadtreeView::non_negative), eb * |a| likewise, so that it holds for functions of any sign.

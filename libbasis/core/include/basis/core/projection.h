@@ -58,8 +58,13 @@ class QuadtreeProjector {
  private:
   // Bottom-up: the averages of every cell of levels 0 .. log2(N) - 1 for every plane, and the
   // error bounds (with the smallest and largest texel under each cell, for exact bounds) of the
-  // planes the cut looks at.
+  // planes the cut looks at, rounded up so that they bound every texel's distance from the
+  // stored average.
   void build_levels(const Grid& grid, const ProjectionOptions& options, int bounded);
+  // The averages of every cell of levels 0 .. log2(N) - 1 for every plane: summed in double and
+  // rounded once to the nearest float: within half a float's step of the texels' mean, plus the
+  // double sums' rounding (at most 2^-48 of the largest texel under the cell).
+  void build_means(const Grid& grid);
   // Top-down: emits nodes in depth-first pre-order, refining the quadrants whose bound exceeds
   // the plane's tolerance, down to max_depth.
   void cut(const Grid& grid, std::span<const float> tolerances, int max_depth, Quadtree& out);
@@ -91,7 +96,7 @@ class QuadtreeProjector {
   std::vector<float*> extreme_planes_;
   std::vector<float> deviation_storage_;
   std::vector<float*> deviation_planes_;
-  std::vector<double> moments_[4];  // means and sums of squared deviations of two levels
+  std::vector<double> moments_[4];  // means (and sums of squared deviations) of two levels
   std::vector<PendingCell> pending_;
   std::vector<float> local_tolerance_;  // per bounded plane, empty unless locally relative
 };

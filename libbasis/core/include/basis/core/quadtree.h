@@ -22,7 +22,8 @@ struct alignas(16) Quad {
 // Node n occupies quads [n * stride, (n + 1) * stride), stride = 1 + groups * channels:
 //   quad 0: the child links as int32 lanes; 0 marks a leaf quadrant, otherwise the index of the
 //           child node, always greater than n (nodes are stored in depth-first pre-order);
-//   quad 1 + g * channels + c: the quadrants' averages of group g, channel c.
+//   quad 1 + g * channels + c: the quadrants' averages of group g, channel c (projection: each
+//           the nearest float to its texels' mean, summed in double).
 // Errors: quad (n * bounded_groups + g) * channels + c bounds |texel - quadrant average| of
 // group g, channel c over every texel under each quadrant, whether the quadrant is a leaf or
 // not, for the first bounded_groups groups.
