@@ -52,6 +52,26 @@ auto float_pair_bound(const QuadtreeView& a, const QuadtreeView& b) {
   };
 }
 
+// A float-tree descent's group-0 sums as a certified result. No accumulator took more than
+// `additions` terms, each a product rounded to `unit` (2^-24 in floats; in double, products of
+// floats are exact and unit is the sums' own 2^-53): the value's rounding is then within
+// (gamma + unit)(1 + unit) of the magnitudes' sum, gamma = n unit / (1 - n unit), and the bound's
+// own sum within (1 - unit)(1 - gamma) of its terms' (Higham's recursive summation bound).
+template <typename T>
+Convolution float_tree_result(const T* value, const T* bound, const T* magnitude, double additions,
+                              double unit, int channels) {
+  const double gamma = additions * unit / (1 - additions * unit);
+  std::array<double, 3> v{}, b{};
+  for (int c = 0; c < 3; ++c) {
+    const int k = channels == 1 ? 0 : c;
+    v[std::size_t(c)] = double(value[k]);
+    // The last factor covers this line's own double rounding.
+    b[std::size_t(c)] = (double(bound[k]) + (gamma + unit) * (1 + unit) * double(magnitude[k])) /
+                        ((1 - unit) * (1 - gamma)) * (1 + 0x1p-40);
+  }
+  return certified_convolution(v, b);
+}
+
 // ---------------------------------------------------------------- SSE path
 
 #if defined(__SSE2__)
@@ -82,9 +102,13 @@ template <int CA, int CB, int GA, bool kBound>
 class SseDescent {
  public:
   static constexpr int C = CA > CB ? CA : CB;
+  // Lane sums, and for the bound the lanes' sums of |area a b| of group 0 and how many pairs
+  // were visited: what the rounding of the float sums is bounded by (float_tree_result).
   struct Sums {
     __m128 value[GA][C];
     __m128 bound[C];
+    __m128 magnitude[C];
+    std::uint64_t pairs = 0;
   };
 
   SseDescent(const QuadtreeView& a, const QuadtreeView& b)
@@ -102,12 +126,13 @@ class SseDescent {
   // Integral over the cell of nodes (root_a, root_b), whose quadrants have area quadrant_area.
   Sums run(std::int32_t root_a, std::int32_t root_b, float quadrant_area, int depth = 0) const {
     if (depth > kMaxTreeLevels) throw std::runtime_error("quadtree deeper than its resolution");
-    __m128 value[GA][C], bound[C];
+    __m128 value[GA][C], bound[C], magnitude[C];
     for (int c = 0; c < C; ++c) {
       for (int g = 0; g < GA; ++g)
         value[g][c] = _mm_setzero_ps();
-      bound[c] = _mm_setzero_ps();
+      bound[c] = magnitude[c] = _mm_setzero_ps();
     }
+    std::uint64_t pairs = 0;
     const Quad* const nodes_a = nodes_a_;
     const Quad* const nodes_b = nodes_b_;
     const std::size_t stride_a = stride_a_, stride_b = stride_b_;
@@ -128,9 +153,12 @@ class SseDescent {
       const __m128 leaf_area = _mm_and_ps(leaf, _mm_set1_ps(area));
       for (int c = 0; c < C; ++c) {
         const __m128 vb = _mm_load_ps(qb[1 + (CB == 1 ? 0 : c)].lane);
+        __m128 product_0 = _mm_setzero_ps();  // group 0's, for the magnitudes
         for (int g = 0; g < GA; ++g) {
           const __m128 va = _mm_load_ps(qa[1 + g * CA + (CA == 1 ? 0 : c)].lane);
-          value[g][c] = _mm_add_ps(value[g][c], _mm_mul_ps(_mm_mul_ps(va, vb), leaf_area));
+          const __m128 product = _mm_mul_ps(_mm_mul_ps(va, vb), leaf_area);
+          value[g][c] = _mm_add_ps(value[g][c], product);
+          if (g == 0) product_0 = product;
         }
         if constexpr (kBound) {
           const __m128 va = _mm_load_ps(qa[1 + (CA == 1 ? 0 : c)].lane);
@@ -142,11 +170,14 @@ class SseDescent {
           const __m128 term = _mm_min_ps(_mm_mul_ps(ea, eb),
                                          _mm_min_ps(_mm_mul_ps(ea, abs_b), _mm_mul_ps(eb, abs_a)));
           bound[c] = _mm_add_ps(bound[c], _mm_mul_ps(term, leaf_area));
+          magnitude[c] = _mm_add_ps(magnitude[c], abs_ps(product_0));
         }
       }
+      ++pairs;
       const int internal = ~_mm_movemask_ps(leaf) & 0xF;
       if (internal)
-        enqueue(internal, links_a, links_b, ring, head, tail, area, depth, value, bound);
+        enqueue(internal, links_a, links_b, ring, head, tail, area, depth, value, bound, magnitude,
+                pairs);
       if (head == tail) break;
       if (head == level_end) {  // the next level starts: quadrants are a quarter the size
         area *= 0.25f;
@@ -161,7 +192,9 @@ class SseDescent {
       for (int g = 0; g < GA; ++g)
         sums.value[g][c] = value[g][c];
       sums.bound[c] = bound[c];
+      sums.magnitude[c] = magnitude[c];
     }
+    sums.pairs = pairs;
     return sums;
   }
 
@@ -172,7 +205,8 @@ class SseDescent {
   // has no room, descends them in nested calls and adds their sums.
   [[gnu::always_inline]] void enqueue(int internal, __m128i links_a, __m128i links_b,
                                       std::int64_t* ring, unsigned head, unsigned& tail, float area,
-                                      int depth, __m128 (&value)[GA][C], __m128 (&bound)[C]) const {
+                                      int depth, __m128 (&value)[GA][C], __m128 (&bound)[C],
+                                      __m128 (&magnitude)[C], std::uint64_t& pairs) const {
     const __m128i low = _mm_unpacklo_epi32(links_a, links_b);   // (a0 b0) (a1 b1)
     const __m128i high = _mm_unpackhi_epi32(links_a, links_b);  // (a2 b2) (a3 b3)
     if (tail - head > kRing - 4) [[unlikely]] {
@@ -181,7 +215,9 @@ class SseDescent {
         for (int g = 0; g < GA; ++g)
           value[g][c] = _mm_add_ps(value[g][c], nested.value[g][c]);
         bound[c] = _mm_add_ps(bound[c], nested.bound[c]);
+        magnitude[c] = _mm_add_ps(magnitude[c], nested.magnitude[c]);
       }
+      pairs += nested.pairs;
       return;
     }
     // Branchless enqueue: every quadrant is written, the tail passes internal ones only.
@@ -210,7 +246,9 @@ class SseDescent {
           for (int g = 0; g < GA; ++g)
             total.value[g][c] = _mm_add_ps(total.value[g][c], nested.value[g][c]);
           total.bound[c] = _mm_add_ps(total.bound[c], nested.bound[c]);
+          total.magnitude[c] = _mm_add_ps(total.magnitude[c], nested.magnitude[c]);
         }
+        total.pairs += nested.pairs;
       }
     return total;
   }
@@ -224,24 +262,43 @@ class SseDescent {
   bool non_negative_a_, non_negative_b_;
 };
 
+// A float descent's channel sums: values per group, and for the bound its sum, the sum of
+// |area a b| and the pairs visited (float_tree_result).
+template <int GA>
+struct FloatSums {
+  float value[GA][4] = {};
+  float bound[4] = {}, magnitude[4] = {};
+  std::uint64_t pairs = 0;
+};
+
+// In floats: a lane takes a pair's term or none per pair, nested descents' sums one addition
+// each (fewer than the pairs), and the lanes' sums two more.
+constexpr double kFloatUnit = 0x1p-24;
+template <int GA>
+double float_additions(const FloatSums<GA>& sums) {
+  return 2 * double(sums.pairs) + 8;
+}
+
 template <int CA, int CB, int GA, bool kBound>
-void descend_sse(const QuadtreeView& a, const QuadtreeView& b, float (&value)[GA][4],
-                 float (&bound)[4]) {
+void descend_sse(const QuadtreeView& a, const QuadtreeView& b, FloatSums<GA>& out) {
   using Descent = SseDescent<CA, CB, GA, kBound>;
   const typename Descent::Sums sums = Descent(a, b).run(0, 0, 0.25f);
   for (int g = 0; g < GA; ++g)
-    store_lane_sums<Descent::C>(sums.value[g], value[g]);
-  if constexpr (kBound) store_lane_sums<Descent::C>(sums.bound, bound);
+    store_lane_sums<Descent::C>(sums.value[g], out.value[g]);
+  if constexpr (kBound) {
+    store_lane_sums<Descent::C>(sums.bound, out.bound);
+    store_lane_sums<Descent::C>(sums.magnitude, out.magnitude);
+    out.pairs = sums.pairs;
+  }
 }
 
 template <int GA, bool kBound>
-void dispatch_sse(const QuadtreeView& a, const QuadtreeView& b, float (&value)[GA][4],
-                  float (&bound)[4]) {
+void dispatch_sse(const QuadtreeView& a, const QuadtreeView& b, FloatSums<GA>& out) {
   const int ca = a.shape().channels, cb = b.shape().channels;
-  if (ca == 1 && cb == 1) return descend_sse<1, 1, GA, kBound>(a, b, value, bound);
-  if (ca == 1) return descend_sse<1, 3, GA, kBound>(a, b, value, bound);
-  if (cb == 1) return descend_sse<3, 1, GA, kBound>(a, b, value, bound);
-  return descend_sse<3, 3, GA, kBound>(a, b, value, bound);
+  if (ca == 1 && cb == 1) return descend_sse<1, 1, GA, kBound>(a, b, out);
+  if (ca == 1) return descend_sse<1, 3, GA, kBound>(a, b, out);
+  if (cb == 1) return descend_sse<3, 1, GA, kBound>(a, b, out);
+  return descend_sse<3, 3, GA, kBound>(a, b, out);
 }
 
 #endif  // __SSE2__
@@ -297,7 +354,9 @@ GroupConvolution convolve_groups_scalar(const QuadtreeView& a, const QuadtreeVie
   GroupConvolution result;
   for (int g = 0; g < groups; ++g)
     result.value[g] = channels_to_rgb(sums.value[g], channels);
-  result.bound = channels_to_rgb(sums.bound, channels);
+  result.bound = float_tree_result(sums.value[0], sums.bound, sums.magnitude,
+                                   double(sums.stops) + 2, 0x1p-53, channels)
+                     .bound;
   return result;
 }
 
@@ -306,16 +365,18 @@ Convolution convolve_scalar(const QuadtreeView& a, const QuadtreeView& b) {
   const int channels = std::max(a.shape().channels, b.shape().channels);
   ScalarSums sums;
   detail::descend_scalar(a, b, 0, 0, 0.25, channels, 1, {}, float_pair_bound(a, b), sums);
-  return {channels_to_rgb(sums.value[0], channels), channels_to_rgb(sums.bound, channels)};
+  return float_tree_result(sums.value[0], sums.bound, sums.magnitude, double(sums.stops) + 2,
+                           0x1p-53, channels);
 }
 
 Convolution convolve(const QuadtreeView& a, const QuadtreeView& b) {
 #if defined(__SSE2__)
   check_compatible(a.shape(), b.shape());
   const int channels = std::max(a.shape().channels, b.shape().channels);
-  float value[1][4] = {}, bound[4] = {};
-  dispatch_sse<1, true>(a, b, value, bound);
-  return {channels_to_rgb(value[0], channels), channels_to_rgb(bound, channels)};
+  FloatSums<1> sums;
+  dispatch_sse<1, true>(a, b, sums);
+  return float_tree_result(sums.value[0], sums.bound, sums.magnitude, float_additions(sums),
+                           kFloatUnit, channels);
 #else
   return convolve_scalar(a, b);
 #endif
@@ -325,9 +386,9 @@ Rgb convolve_value(const QuadtreeView& a, const QuadtreeView& b) {
 #if defined(__SSE2__)
   check_compatible(a.shape(), b.shape());
   const int channels = std::max(a.shape().channels, b.shape().channels);
-  float value[1][4] = {}, bound[4] = {};
-  dispatch_sse<1, false>(a, b, value, bound);
-  return channels_to_rgb(value[0], channels);
+  FloatSums<1> sums;
+  dispatch_sse<1, false>(a, b, sums);
+  return channels_to_rgb(sums.value[0], channels);
 #else
   return convolve_scalar(a, b).value;
 #endif
@@ -338,12 +399,14 @@ GroupConvolution convolve_groups(const QuadtreeView& a, const QuadtreeView& b) {
   check_compatible(a.shape(), b.shape());
   const int channels = std::max(a.shape().channels, b.shape().channels);
   GroupConvolution result;
-  float bound[4] = {};
   auto run = [&]<int G>() {
-    float value[G][4] = {};
-    dispatch_sse<G, true>(a, b, value, bound);
+    FloatSums<G> sums;
+    dispatch_sse<G, true>(a, b, sums);
     for (int g = 0; g < G; ++g)
-      result.value[g] = channels_to_rgb(value[g], channels);
+      result.value[g] = channels_to_rgb(sums.value[g], channels);
+    result.bound = float_tree_result(sums.value[0], sums.bound, sums.magnitude,
+                                     float_additions(sums), kFloatUnit, channels)
+                       .bound;
   };
   switch (a.shape().groups) {
     case 1:
@@ -355,7 +418,6 @@ GroupConvolution convolve_groups(const QuadtreeView& a, const QuadtreeView& b) {
     default:
       run.operator()<3>();
   }
-  result.bound = channels_to_rgb(bound, channels);
   return result;
 #else
   return convolve_groups_scalar(a, b);

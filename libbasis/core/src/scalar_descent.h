@@ -3,12 +3,15 @@
 #pragma once
 
 #include <cmath>
+#include <cstdint>
 
 namespace basis::detail {
 
 struct ScalarSums {
   double value[3][3] = {};  // [group][channel]
   double bound[3] = {};
+  double magnitude[3] = {};  // area |a b| of group 0, summed
+  std::uint64_t stops = 0;   // quadrant pairs summed
 };
 
 // What an accuracy-targeted descent may spend per unit area of a pair, per channel:
@@ -52,7 +55,9 @@ void descend_scalar(const A& a, const B& b, int na, int nb, double area, int cha
       for (int g = 0; g < groups; ++g)
         sums.value[g][c] += a.value(na, g, ca, q) * vb[c] * area;
       sums.bound[c] += area * bound[c];
+      sums.magnitude[c] += std::abs(a.value(na, 0, ca, q) * vb[c]) * area;
     }
+    ++sums.stops;
   }
 }
 

@@ -27,12 +27,13 @@ struct Convolution {
 
 // Channel counts must be equal or one of them 1 (a grey function against RGB). Trees of
 // different resolutions convolve as the piecewise-constant functions they are. The value is
-// the two trees' integral, summed in floats (whose rounding, about 2^-24 of the magnitudes
-// summed per addition, neither it nor the bound accounts for: packed trees' descents do); the
-// bound covers the difference to the product of the source grids:
-// on every quadrant where the descent stops it adds area * min(ea * eb, ea * |b|, eb * |a|),
-// ea, eb the quadrants' error bounds; ea * |b| only when b is known to be >= 0
-// (QuadtreeView::non_negative), eb * |a| likewise, so that it holds for functions of any sign.
+// the two trees' integral, summed in floats; the bound covers its difference to the product of
+// the source grids: on every quadrant where the descent stops it adds
+// area * min(ea * eb, ea * |b|, eb * |a|), ea, eb the quadrants' error bounds (ea * |b| only when
+// b is known to be >= 0, QuadtreeView::non_negative, eb * |a| likewise, so that it holds for
+// functions of any sign), and then the float sums' rounding, (2 P + 8) 2^-24 of the sum of
+// area |a b| (P the pairs visited; in double for convolve_scalar). Throws std::overflow_error
+// for a value beyond the floats.
 // For the hemisphere integral of A * B * cos in the cosine-weighted map, multiply by pi.
 Convolution convolve(const QuadtreeView& a, const QuadtreeView& b);
 
