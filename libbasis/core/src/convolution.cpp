@@ -40,36 +40,67 @@ inline void check_compatible(const QuadtreeShape& a, const QuadtreeShape& b) {
 
 using detail::ScalarSums;
 
-// The bound of a stopped pair of float trees: min(ea eb, ea |b|, eb |a|), each alternative only
-// where that side is known to be >= 0 (elsewhere the mean of |B| may exceed |b|; taking eb in
-// place of |b| leaves the product term).
+// How far a float tree's stored average a may lie from its texels' mean (projection.h): half a
+// float step, at most 2^-24 |a| (or below 2^-126, the smallest normal float, with or without
+// subnormals), plus the double sums' 2^-48 of the largest texel, which |a| + ea bounds.
+constexpr double kAverageRounding = 0x1p-24, kAverageSumRounding = 0x1p-48,
+                 kAverageFloor = 0x1p-126;
+inline double average_rounding(double a, double ea) {
+  return kAverageRounding * std::abs(a) + kAverageSumRounding * (std::abs(a) + ea) + kAverageFloor;
+}
+
+// The bound of a stopped pair of float trees whose averages a, b lie within ra, rb of their
+// texels' means:
+//   |integral of AB - area a b| <= area (min(ea eb, ea (|b| + rb) + |b| ra, eb (|a| + ra) +
+//   |a| rb) + |a| rb + |b| ra),
+// the product term's alternatives only where that side is known to be >= 0 (elsewhere the mean
+// of |B| may exceed |b| + rb).
 auto float_pair_bound(const QuadtreeView& a, const QuadtreeView& b) {
   return [&a, &b](int na, int nb, int ca, int cb, int q, double va, double vb) {
     const double ea = a.error(na, ca, q), eb = b.error(nb, cb, q);
-    const double abs_a = a.non_negative() ? std::abs(va) : ea;
-    const double abs_b = b.non_negative() ? std::abs(vb) : eb;
-    return std::min({ea * eb, ea * abs_b, eb * abs_a});
+    const double ra = average_rounding(va, ea), rb = average_rounding(vb, eb);
+    const double abs_a = std::abs(va), abs_b = std::abs(vb);
+    double product = ea * eb;
+    if (b.non_negative()) product = std::min(product, ea * (abs_b + rb) + abs_b * ra);
+    if (a.non_negative()) product = std::min(product, eb * (abs_a + ra) + abs_a * rb);
+    return product + abs_a * rb + abs_b * ra;
   };
 }
 
-// A float-tree descent's group-0 sums as a certified result. No accumulator took more than
-// `additions` terms, each a product rounded to `unit` (2^-24 in floats; in double, products of
-// floats are exact and unit is the sums' own 2^-53): the value's rounding is then within
-// (gamma + unit)(1 + unit) of the magnitudes' sum, gamma = n unit / (1 - n unit), and the bound's
-// own sum within (1 - unit)(1 - gamma) of its terms' (Higham's recursive summation bound).
+// How a float-tree descent summed: no accumulator took more than `additions` terms; each term
+// was computed to `unit` (a product: 2^-24 in floats; in double, products of floats are exact and
+// unit is the sums' own 2^-53), and a bound term in at most four roundings; and each term may
+// also have lost `floor` to underflow (0 in double).
+struct FloatSummation {
+  double additions = 0, unit = 0, floor = 0;
+};
+
+// A float-tree descent's group-0 sums as a certified result: the value's rounding lies within
+// (gamma + unit)(1 + unit) of the magnitudes' sum, gamma = n unit / (1 - n unit) (Higham's bound
+// on recursive summation), and the exact bound within 1 / ((1 - 4 unit)(1 - gamma)) of its
+// float sum; each term's underflow adds `floor`, four lanes of `additions` terms each, for the
+// value and for the bound.
 template <typename T>
-Convolution float_tree_result(const T* value, const T* bound, const T* magnitude, double additions,
-                              double unit, int channels) {
-  const double gamma = additions * unit / (1 - additions * unit);
+Convolution float_tree_result(const T* value, const T* bound, const T* magnitude,
+                              const FloatSummation& summation, int channels) {
+  const double unit = summation.unit;
+  const double gamma = summation.additions * unit / (1 - summation.additions * unit);
+  const double underflow = 8 * summation.additions * summation.floor;
   std::array<double, 3> v{}, b{};
   for (int c = 0; c < 3; ++c) {
     const int k = channels == 1 ? 0 : c;
     v[std::size_t(c)] = double(value[k]);
     // The last factor covers this line's own double rounding.
-    b[std::size_t(c)] = (double(bound[k]) + (gamma + unit) * (1 + unit) * double(magnitude[k])) /
-                        ((1 - unit) * (1 - gamma)) * (1 + 0x1p-40);
+    b[std::size_t(c)] =
+        (double(bound[k]) + (gamma + unit) * (1 + unit) * double(magnitude[k]) + underflow) /
+        ((1 - 4 * unit) * (1 - gamma)) * (1 + 0x1p-40);
   }
   return certified_convolution(v, b);
+}
+
+// How the scalar descent sums, in double: one accumulator per channel takes every stopped pair.
+FloatSummation scalar_summation(const ScalarSums& sums) {
+  return {double(sums.stops) + 2, 0x1p-53, 0};
 }
 
 // ---------------------------------------------------------------- SSE path
@@ -78,6 +109,16 @@ Convolution float_tree_result(const T* value, const T* bound, const T* magnitude
 
 inline __m128 abs_ps(__m128 x) {
   return _mm_andnot_ps(_mm_set1_ps(-0.0f), x);
+}
+
+// average_rounding of |a| = abs_a and ea in floats, its factors raised by 2^-20 so that the
+// float products and sums' rounding cannot bring it below the exact value.
+inline __m128 average_rounding_ps(__m128 abs_a, __m128 ea) {
+  constexpr double kRaised = 1 + 0x1p-20;
+  const __m128 per_value = _mm_set1_ps(float((kAverageRounding + kAverageSumRounding) * kRaised));
+  const __m128 per_error = _mm_set1_ps(float(kAverageSumRounding * kRaised));
+  return _mm_add_ps(_mm_add_ps(_mm_mul_ps(abs_a, per_value), _mm_mul_ps(ea, per_error)),
+                    _mm_set1_ps(float(kAverageFloor * kRaised)));
 }
 
 // Lane sums of C accumulators (C = 1 or 3) into out[0..C-1]; out has room for four floats.
@@ -164,11 +205,18 @@ class SseDescent {
           const __m128 va = _mm_load_ps(qa[1 + (CA == 1 ? 0 : c)].lane);
           const __m128 ea = _mm_load_ps(errors_a_[na * error_stride_a_ + (CA == 1 ? 0 : c)].lane);
           const __m128 eb = _mm_load_ps(errors_b_[nb * error_stride_b_ + (CB == 1 ? 0 : c)].lane);
-          // |b| only where b is known to be >= 0, else eb (float_pair_bound); likewise a.
-          const __m128 abs_a = non_negative_a_ ? abs_ps(va) : ea;
-          const __m128 abs_b = non_negative_b_ ? abs_ps(vb) : eb;
-          const __m128 term = _mm_min_ps(_mm_mul_ps(ea, eb),
-                                         _mm_min_ps(_mm_mul_ps(ea, abs_b), _mm_mul_ps(eb, abs_a)));
+          // float_pair_bound, its constants raised by 2^-20 for their own float rounding.
+          const __m128 abs_a = abs_ps(va), abs_b = abs_ps(vb);
+          const __m128 ra = average_rounding_ps(abs_a, ea), rb = average_rounding_ps(abs_b, eb);
+          __m128 product = _mm_mul_ps(ea, eb);
+          if (non_negative_b_)
+            product = _mm_min_ps(
+                product, _mm_add_ps(_mm_mul_ps(ea, _mm_add_ps(abs_b, rb)), _mm_mul_ps(abs_b, ra)));
+          if (non_negative_a_)
+            product = _mm_min_ps(
+                product, _mm_add_ps(_mm_mul_ps(eb, _mm_add_ps(abs_a, ra)), _mm_mul_ps(abs_a, rb)));
+          const __m128 term =
+              _mm_add_ps(product, _mm_add_ps(_mm_mul_ps(abs_a, rb), _mm_mul_ps(abs_b, ra)));
           bound[c] = _mm_add_ps(bound[c], _mm_mul_ps(term, leaf_area));
           magnitude[c] = _mm_add_ps(magnitude[c], abs_ps(product_0));
         }
@@ -271,12 +319,26 @@ struct FloatSums {
   std::uint64_t pairs = 0;
 };
 
-// In floats: a lane takes a pair's term or none per pair, nested descents' sums one addition
-// each (fewer than the pairs), and the lanes' sums two more.
-constexpr double kFloatUnit = 0x1p-24;
+// How the SSE descent sums, in floats: a lane takes a pair's term or none per pair, and sums of
+// nested descents (each after dozens of its own pairs) and the lanes' sums add fewer than as many
+// again; a term below the normal floats may lose up to 2^-125 (with or without subnormals).
+// Whether the float sums stayed finite: a product of two texels beyond the floats (from about
+// 1.8e19 each), or such a product times an area of 0 (NaN), leaves them, even where the integral
+// does not; the scalar descent, in double, then takes over.
 template <int GA>
-double float_additions(const FloatSums<GA>& sums) {
-  return 2 * double(sums.pairs) + 8;
+bool finite_sums(const FloatSums<GA>& sums) {
+  bool finite = true;
+  for (int k = 0; k < 4; ++k) {
+    for (int g = 0; g < GA; ++g)
+      finite = finite && std::isfinite(sums.value[g][k]);
+    finite = finite && std::isfinite(sums.bound[k]) && std::isfinite(sums.magnitude[k]);
+  }
+  return finite;
+}
+
+template <int GA>
+FloatSummation sse_summation(const FloatSums<GA>& sums) {
+  return {2 * double(sums.pairs) + 8, 0x1p-24, 0x1p-125};
 }
 
 template <int CA, int CB, int GA, bool kBound>
@@ -354,9 +416,9 @@ GroupConvolution convolve_groups_scalar(const QuadtreeView& a, const QuadtreeVie
   GroupConvolution result;
   for (int g = 0; g < groups; ++g)
     result.value[g] = channels_to_rgb(sums.value[g], channels);
-  result.bound = float_tree_result(sums.value[0], sums.bound, sums.magnitude,
-                                   double(sums.stops) + 2, 0x1p-53, channels)
-                     .bound;
+  result.bound =
+      float_tree_result(sums.value[0], sums.bound, sums.magnitude, scalar_summation(sums), channels)
+          .bound;
   return result;
 }
 
@@ -365,8 +427,8 @@ Convolution convolve_scalar(const QuadtreeView& a, const QuadtreeView& b) {
   const int channels = std::max(a.shape().channels, b.shape().channels);
   ScalarSums sums;
   detail::descend_scalar(a, b, 0, 0, 0.25, channels, 1, {}, float_pair_bound(a, b), sums);
-  return float_tree_result(sums.value[0], sums.bound, sums.magnitude, double(sums.stops) + 2,
-                           0x1p-53, channels);
+  return float_tree_result(sums.value[0], sums.bound, sums.magnitude, scalar_summation(sums),
+                           channels);
 }
 
 Convolution convolve(const QuadtreeView& a, const QuadtreeView& b) {
@@ -375,23 +437,26 @@ Convolution convolve(const QuadtreeView& a, const QuadtreeView& b) {
   const int channels = std::max(a.shape().channels, b.shape().channels);
   FloatSums<1> sums;
   dispatch_sse<1, true>(a, b, sums);
-  return float_tree_result(sums.value[0], sums.bound, sums.magnitude, float_additions(sums),
-                           kFloatUnit, channels);
+  if (!finite_sums(sums)) return convolve_scalar(a, b);
+  return float_tree_result(sums.value[0], sums.bound, sums.magnitude, sse_summation(sums),
+                           channels);
 #else
   return convolve_scalar(a, b);
 #endif
 }
 
 Rgb convolve_value(const QuadtreeView& a, const QuadtreeView& b) {
-#if defined(__SSE2__)
   check_compatible(a.shape(), b.shape());
   const int channels = std::max(a.shape().channels, b.shape().channels);
+#if defined(__SSE2__)
   FloatSums<1> sums;
   dispatch_sse<1, false>(a, b, sums);
-  return channels_to_rgb(sums.value[0], channels);
-#else
-  return convolve_scalar(a, b).value;
+  if (finite_sums(sums)) return channels_to_rgb(sums.value[0], channels);
 #endif
+  // In double: a value beyond the floats is infinite here, not an error.
+  ScalarSums scalar;
+  detail::descend_scalar(a, b, 0, 0, 0.25, channels, 1, {}, float_pair_bound(a, b), scalar);
+  return channels_to_rgb(scalar.value[0], channels);
 }
 
 GroupConvolution convolve_groups(const QuadtreeView& a, const QuadtreeView& b) {
@@ -399,14 +464,17 @@ GroupConvolution convolve_groups(const QuadtreeView& a, const QuadtreeView& b) {
   check_compatible(a.shape(), b.shape());
   const int channels = std::max(a.shape().channels, b.shape().channels);
   GroupConvolution result;
+  bool finite = true;
   auto run = [&]<int G>() {
     FloatSums<G> sums;
     dispatch_sse<G, true>(a, b, sums);
+    finite = finite_sums(sums);
+    if (!finite) return;
     for (int g = 0; g < G; ++g)
       result.value[g] = channels_to_rgb(sums.value[g], channels);
-    result.bound = float_tree_result(sums.value[0], sums.bound, sums.magnitude,
-                                     float_additions(sums), kFloatUnit, channels)
-                       .bound;
+    result.bound =
+        float_tree_result(sums.value[0], sums.bound, sums.magnitude, sse_summation(sums), channels)
+            .bound;
   };
   switch (a.shape().groups) {
     case 1:
@@ -418,10 +486,9 @@ GroupConvolution convolve_groups(const QuadtreeView& a, const QuadtreeView& b) {
     default:
       run.operator()<3>();
   }
-  return result;
-#else
-  return convolve_groups_scalar(a, b);
+  if (finite) return result;
 #endif
+  return convolve_groups_scalar(a, b);
 }
 
 Rgb convolve_product(std::span<const QuadtreeView> factors) {

@@ -18,8 +18,10 @@ int log2_of(int n) {
   return std::countr_zero(unsigned(n));
 }
 
-// The smallest float at least x (x >= 0, computed in double with a margin for its own rounding):
-// the nearest float, or the next one up when that lies below. 0 stays 0.
+// A float at least x (x >= 0, computed in double): the nearest float to x raised by 2^-50 (a
+// margin for x's own double rounding), or the next float up when that lies below; 0 stays 0.
+// So bounds rise by at most one float step, and a quadrant whose bound equals the tolerance
+// exactly is refined.
 float float_at_least(double x) {
   const double safe = x + x * 0x1p-50;
   const float nearest = float(safe);
@@ -201,9 +203,9 @@ void QuadtreeProjector::build_levels(const Grid& grid, const ProjectionOptions& 
         build_level(values(grid, k, p), texels ? nullptr : errors(k, p), 1 << k, errors(k - 1, p));
     }
   build_deviations(grid);
-  // Averages and bounds of texels near the float range can overflow it.
+  // Bounds of texels near the float range can overflow it (averages cannot; checked all the same).
   if (!all_finite(value_storage_) || !all_finite(error_storage_) || !all_finite(deviation_storage_))
-    throw std::overflow_error("averages or error bounds of texels overflow float (largest 3.4e38)");
+    throw std::overflow_error("error bounds of texels overflow float (largest 3.4e38)");
 }
 
 void QuadtreeProjector::build_means(const Grid& grid) {

@@ -17,12 +17,13 @@ namespace {
 using testing::test_functions;
 
 // Dense integral of the product over [0,1]^2, written here independently of the library:
-// grids are upsampled by replication to the finest resolution, channels broadcast.
+// grids are upsampled by replication to the finest resolution, channels broadcast; summed in
+// long double (64 bits of mantissa), so that 2^40 + 2^-20 keeps its small part.
 double dense_product(const std::vector<const Grid*>& grids, int group_of_first, int channel) {
   int n = 0;
   for (const Grid* g : grids)
     n = std::max(n, g->resolution);
-  double sum = 0;
+  long double sum = 0;
   for (int y = 0; y < n; ++y)
     for (int x = 0; x < n; ++x) {
       double p = 1;
@@ -33,7 +34,7 @@ double dense_product(const std::vector<const Grid*>& grids, int group_of_first, 
       }
       sum += p;
     }
-  return sum / (double(n) * n);
+  return double(sum / (static_cast<long double>(n) * n));
 }
 
 // The grid of |texel|, for the magnitudes a float descent's sums may lose to rounding.
@@ -44,12 +45,14 @@ Grid absolute(const Grid& grid) {
   return out;
 }
 
-// The most a float descent's sums lose to rounding (convolution.h): (2 P + 8) 2^-24 of the
-// magnitudes summed, P its pairs, at most the nodes of an n x n tree, (n^2 - 1) / 3 (with
-// Higham's 1 / (1 - n u) and the products' own rounding, under 1.01 times that here).
+// The most a float descent's bound grows by rounding alone (convolution.h): its sums' share,
+// (2 P + 8) 2^-24 of the magnitudes summed (P its pairs, at most the nodes of an n x n tree,
+// (n^2 - 1) / 3), and the averages' own half float step on both sides of every pair (2^-24 each,
+// and 2^-48 more of the largest texels); with Higham's 1 / (1 - n u) and the terms' own rounding,
+// under 1.01 times (2 P + 13) 2^-24 of the magnitudes here.
 double float_sums_cover(int n, double magnitude) {
   const double pairs = (double(n) * n - 1) / 3;
-  return 1.01 * (2 * pairs + 9) * 0x1p-24 * magnitude;
+  return 1.01 * (2 * pairs + 13) * 0x1p-24 * magnitude;
 }
 
 // A SIMD bound against the scalar one (double sums): at least it, and above it by at most the
@@ -204,6 +207,56 @@ TEST(Convolution, TexelsThatCancelKeepTheirBound) {
   }
 }
 
+// Float trees at the edges of their arithmetic, each against the dense product in double:
+// averages whose double sums lose a texel (2^40 + 2^-20 - 2^40 averages to 0), averages
+// rounded to the nearest float (1 + 2^-25 stored as 1), products below the floats (1e-23
+// squared), and products beyond them that the integral is not (2e19 squared over 64 texels;
+// two spikes of 4e20 that never meet, whose integral is 0). Each once printed a bound it broke,
+// or threw.
+TEST(Convolution, FloatTreesHoldTheirBoundAtTheEdgesOfTheirArithmetic) {
+  struct Case {
+    const char* name;
+    Grid a, b;
+  };
+  std::vector<Case> cases;
+  auto grid = [](int n, float fill) {
+    Grid g(n, 1);
+    std::fill(g.texels.begin(), g.texels.end(), fill);
+    return g;
+  };
+  Case lost{"sums that lose a texel", grid(4, 0), grid(4, 1)};
+  Case rounded{"averages rounded to floats", grid(4, 1), grid(4, 1)};
+  for (int y = 0; y < 4; y += 2)
+    for (int x = 0; x < 4; x += 2) {
+      lost.a.at(0, 0, x, y) = 0x1p40f;
+      lost.a.at(0, 0, x + 1, y) = 0x1p-20f;
+      lost.a.at(0, 0, x, y + 1) = -0x1p40f;
+      rounded.a.at(0, 0, x + 1, y + 1) = 1 + 0x1p-23f;
+    }
+  cases.push_back(lost);
+  cases.push_back(rounded);
+  cases.push_back({"products below the floats", grid(2, 1e-23f), grid(2, 1e-23f)});
+  Case large{"products beyond the floats", grid(8, 0), grid(8, 0)};
+  large.a.at(0, 0, 3, 5) = large.b.at(0, 0, 3, 5) = 2e19f;
+  cases.push_back(large);
+  Case apart{"spikes that never meet", grid(8, 0), grid(8, 0)};
+  apart.a.at(0, 0, 1, 1) = apart.b.at(0, 0, 6, 6) = 4e20f;
+  cases.push_back(apart);
+  for (const Case& k : cases) {
+    const Quadtree a = project(k.a, {.tolerance = 0}), b = project(k.b, {.tolerance = 0});
+    const double exact = dense_product({&k.a, &k.b}, 0, 0);
+    for (const Convolution& conv :
+         {convolve(a.view(), b.view()), convolve_scalar(a.view(), b.view()),
+          Convolution{convolve_groups(a.view(), b.view()).value[0],
+                      convolve_groups(a.view(), b.view()).bound}})
+      EXPECT_LE(std::abs(double(conv.value[0]) - exact), double(conv.bound[0]))
+          << k.name << ": " << conv.value[0] << " +- " << conv.bound[0] << " against " << exact;
+    // The value alone: the same descent's, to the bit (in double where floats overflow).
+    EXPECT_EQ(convolve_value(a.view(), b.view())[0], convolve(a.view(), b.view()).value[0])
+        << k.name;
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Shapes, ConvolutionProperties,
                          ::testing::Values(Case{32, 32, 1, 1}, Case{32, 32, 3, 3},
                                            Case{16, 16, 1, 3}, Case{64, 64, 3, 1},
@@ -227,7 +280,7 @@ TEST(Convolution, ToleranceZeroReproducesTheDenseResult) {
         const Grid abs_a = absolute(grid_a), abs_b = absolute(grid_b);
         for (int c = 0; c < 3; ++c) {
           EXPECT_LT(relative_gap(conv.value[c], naive[c]), 2e-6) << name_a << " x " << name_b;
-          // Every texel is its own leaf: only the float sums' rounding is left to bound.
+          // Every texel is its own leaf: only rounding is left to bound.
           EXPECT_LE(conv.bound[c], float_sums_cover(n, dense_product({&abs_a, &abs_b}, 0, c)));
           EXPECT_LE(std::abs(conv.value[c] - naive[c]), conv.bound[c]) << name_a << " x " << name_b;
         }

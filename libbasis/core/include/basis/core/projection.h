@@ -50,7 +50,8 @@ class QuadtreeProjector {
  public:
   // Projects a grid of resolution 2..512 (power of two) with 1 or 3 channels, 1 to 3 groups
   // and finite texels. Throws std::invalid_argument for other grids, and std::overflow_error
-  // when averaging the texels leaves the float range (texels near 3.4e38).
+  // when the texels' error bounds leave the float range (texels of both signs near 3.4e38, the
+  // paper's bound of steps that add up past it); averages, summed in double, never do.
   Quadtree project(const Grid& grid, const ProjectionOptions& options = {});
   // Same, writing into an existing tree so that its storage is reused.
   void project(const Grid& grid, const ProjectionOptions& options, Quadtree& out);
