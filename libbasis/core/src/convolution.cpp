@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstring>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -41,8 +42,9 @@ inline void check_compatible(const QuadtreeShape& a, const QuadtreeShape& b) {
 using detail::ScalarSums;
 
 // How far a float tree's stored average a may lie from its texels' mean (projection.h): half a
-// float step, at most 2^-24 |a| (or below 2^-126, the smallest normal float, with or without
-// subnormals), plus the double sums' 2^-48 of the largest texel, which |a| + ea bounds.
+// float step, at most 2^-24 |a| (or below 2^-126, the smallest normal float, with subnormals or
+// with results flushed to zero; not with subnormal inputs read as zero), plus the double sums'
+// 2^-48 of the largest texel, which |a| + ea bounds.
 constexpr double kAverageRounding = 0x1p-24, kAverageSumRounding = 0x1p-48,
                  kAverageFloor = 0x1p-126;
 inline double average_rounding(double a, double ea) {
@@ -50,27 +52,29 @@ inline double average_rounding(double a, double ea) {
 }
 
 // The bound of a stopped pair of float trees whose averages a, b lie within ra, rb of their
-// texels' means:
-//   |integral of AB - area a b| <= area (min(ea eb, ea (|b| + rb) + |b| ra, eb (|a| + ra) +
-//   |a| rb) + |a| rb + |b| ra),
-// the product term's alternatives only where that side is known to be >= 0 (elsewhere the mean
-// of |B| may exceed |b| + rb).
+// texels' means (mean_A, mean_B), per unit area:
+//   integral of AB - area a b = integral of (A - a)(B - b) + area (a (mean_B - b) + b (mean_A - a))
+//     <= ea eb + |a| rb + |b| ra;
+//   = integral of (A - a) B + area a (mean_B - b) <= ea (|b| + rb) + |a| rb where B >= 0 (the mean
+//     of |B| is then mean_B), and likewise with a and b exchanged where A >= 0.
+// The alternatives only where that side is known to be >= 0 (QuadtreeView::non_negative).
 auto float_pair_bound(const QuadtreeView& a, const QuadtreeView& b) {
   return [&a, &b](int na, int nb, int ca, int cb, int q, double va, double vb) {
     const double ea = a.error(na, ca, q), eb = b.error(nb, cb, q);
     const double ra = average_rounding(va, ea), rb = average_rounding(vb, eb);
     const double abs_a = std::abs(va), abs_b = std::abs(vb);
-    double product = ea * eb;
-    if (b.non_negative()) product = std::min(product, ea * (abs_b + rb) + abs_b * ra);
-    if (a.non_negative()) product = std::min(product, eb * (abs_a + ra) + abs_a * rb);
-    return product + abs_a * rb + abs_b * ra;
+    double bound = ea * eb + abs_a * rb + abs_b * ra;
+    if (b.non_negative()) bound = std::min(bound, ea * (abs_b + rb) + abs_a * rb);
+    if (a.non_negative()) bound = std::min(bound, eb * (abs_a + ra) + abs_b * ra);
+    return bound;
   };
 }
 
 // How a float-tree descent summed: no accumulator took more than `additions` terms; each term
 // was computed to `unit` (a product: 2^-24 in floats; in double, products of floats are exact and
-// unit is the sums' own 2^-53), and a bound term in at most four roundings; and each term may
-// also have lost `floor` to underflow (0 in double).
+// unit is the sums' own 2^-53), and a bound term in at most four roundings (in double up to seven,
+// which float_tree_result's last factor covers); and each term may also have lost `floor` to
+// underflow (0 in double).
 struct FloatSummation {
   double additions = 0, unit = 0, floor = 0;
 };
@@ -191,13 +195,15 @@ class SseDescent {
       const __m128i links_b = _mm_load_si128(reinterpret_cast<const __m128i*>(qb));
       const __m128 leaf = _mm_castsi128_ps(
           _mm_or_si128(_mm_cmpeq_epi32(links_a, zero), _mm_cmpeq_epi32(links_b, zero)));
-      const __m128 leaf_area = _mm_and_ps(leaf, _mm_set1_ps(area));
+      const __m128 area_all = _mm_set1_ps(area);
       for (int c = 0; c < C; ++c) {
         const __m128 vb = _mm_load_ps(qb[1 + (CB == 1 ? 0 : c)].lane);
         __m128 product_0 = _mm_setzero_ps();  // group 0's, for the magnitudes
         for (int g = 0; g < GA; ++g) {
           const __m128 va = _mm_load_ps(qa[1 + g * CA + (CA == 1 ? 0 : c)].lane);
-          const __m128 product = _mm_mul_ps(_mm_mul_ps(va, vb), leaf_area);
+          // Masked rather than times an area of 0, so that a product beyond the floats on a
+          // quadrant that goes on leaves no NaN.
+          const __m128 product = _mm_and_ps(leaf, _mm_mul_ps(_mm_mul_ps(va, vb), area_all));
           value[g][c] = _mm_add_ps(value[g][c], product);
           if (g == 0) product_0 = product;
         }
@@ -208,16 +214,13 @@ class SseDescent {
           // float_pair_bound, its constants raised by 2^-20 for their own float rounding.
           const __m128 abs_a = abs_ps(va), abs_b = abs_ps(vb);
           const __m128 ra = average_rounding_ps(abs_a, ea), rb = average_rounding_ps(abs_b, eb);
-          __m128 product = _mm_mul_ps(ea, eb);
+          const __m128 a_rb = _mm_mul_ps(abs_a, rb), b_ra = _mm_mul_ps(abs_b, ra);
+          __m128 term = _mm_add_ps(_mm_mul_ps(ea, eb), _mm_add_ps(a_rb, b_ra));
           if (non_negative_b_)
-            product = _mm_min_ps(
-                product, _mm_add_ps(_mm_mul_ps(ea, _mm_add_ps(abs_b, rb)), _mm_mul_ps(abs_b, ra)));
+            term = _mm_min_ps(term, _mm_add_ps(_mm_mul_ps(ea, _mm_add_ps(abs_b, rb)), a_rb));
           if (non_negative_a_)
-            product = _mm_min_ps(
-                product, _mm_add_ps(_mm_mul_ps(eb, _mm_add_ps(abs_a, ra)), _mm_mul_ps(abs_a, rb)));
-          const __m128 term =
-              _mm_add_ps(product, _mm_add_ps(_mm_mul_ps(abs_a, rb), _mm_mul_ps(abs_b, ra)));
-          bound[c] = _mm_add_ps(bound[c], _mm_mul_ps(term, leaf_area));
+            term = _mm_min_ps(term, _mm_add_ps(_mm_mul_ps(eb, _mm_add_ps(abs_a, ra)), b_ra));
+          bound[c] = _mm_add_ps(bound[c], _mm_and_ps(leaf, _mm_mul_ps(term, area_all)));
           magnitude[c] = _mm_add_ps(magnitude[c], abs_ps(product_0));
         }
       }
@@ -322,17 +325,15 @@ struct FloatSums {
 // How the SSE descent sums, in floats: a lane takes a pair's term or none per pair, and sums of
 // nested descents (each after dozens of its own pairs) and the lanes' sums add fewer than as many
 // again; a term below the normal floats may lose up to 2^-125 (with or without subnormals).
-// Whether the float sums stayed finite: a product of two texels beyond the floats (from about
-// 1.8e19 each), or such a product times an area of 0 (NaN), leaves them, even where the integral
-// does not; the scalar descent, in double, then takes over.
+// Whether group g's float sums stayed finite: a product of two texels beyond the floats (from
+// about 1.8e19 each) leaves them, even where the integral does not; the scalar descent, in
+// double, then takes over. (A bound or magnitude beyond the floats makes the bound +infinity:
+// float_tree_result.)
 template <int GA>
-bool finite_sums(const FloatSums<GA>& sums) {
+bool finite_values(const FloatSums<GA>& sums, int g) {
   bool finite = true;
-  for (int k = 0; k < 4; ++k) {
-    for (int g = 0; g < GA; ++g)
-      finite = finite && std::isfinite(sums.value[g][k]);
-    finite = finite && std::isfinite(sums.bound[k]) && std::isfinite(sums.magnitude[k]);
-  }
+  for (int k = 0; k < 4; ++k)
+    finite = finite && std::isfinite(sums.value[g][k]);
   return finite;
 }
 
@@ -437,7 +438,7 @@ Convolution convolve(const QuadtreeView& a, const QuadtreeView& b) {
   const int channels = std::max(a.shape().channels, b.shape().channels);
   FloatSums<1> sums;
   dispatch_sse<1, true>(a, b, sums);
-  if (!finite_sums(sums)) return convolve_scalar(a, b);
+  if (!finite_values(sums, 0)) return convolve_scalar(a, b);
   return float_tree_result(sums.value[0], sums.bound, sums.magnitude, sse_summation(sums),
                            channels);
 #else
@@ -451,7 +452,7 @@ Rgb convolve_value(const QuadtreeView& a, const QuadtreeView& b) {
 #if defined(__SSE2__)
   FloatSums<1> sums;
   dispatch_sse<1, false>(a, b, sums);
-  if (finite_sums(sums)) return channels_to_rgb(sums.value[0], channels);
+  if (finite_values(sums, 0)) return channels_to_rgb(sums.value[0], channels);
 #endif
   // In double: a value beyond the floats is infinite here, not an error.
   ScalarSums scalar;
@@ -463,15 +464,24 @@ GroupConvolution convolve_groups(const QuadtreeView& a, const QuadtreeView& b) {
 #if defined(__SSE2__)
   check_compatible(a.shape(), b.shape());
   const int channels = std::max(a.shape().channels, b.shape().channels);
+  // Group 0 and the bound as convolve() gives them; a group whose float sums left the floats
+  // from the scalar descent.
   GroupConvolution result;
   bool finite = true;
   auto run = [&]<int G>() {
     FloatSums<G> sums;
     dispatch_sse<G, true>(a, b, sums);
-    finite = finite_sums(sums);
+    finite = finite_values(sums, 0);
     if (!finite) return;
-    for (int g = 0; g < G; ++g)
-      result.value[g] = channels_to_rgb(sums.value[g], channels);
+    std::optional<GroupConvolution> scalar;
+    for (int g = 0; g < G; ++g) {
+      if (finite_values(sums, g)) {
+        result.value[g] = channels_to_rgb(sums.value[g], channels);
+        continue;
+      }
+      if (!scalar) scalar = convolve_groups_scalar(a, b);
+      result.value[g] = scalar->value[g];
+    }
     result.bound =
         float_tree_result(sums.value[0], sums.bound, sums.magnitude, sse_summation(sums), channels)
             .bound;

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "basis/core/convolution.h"
@@ -211,8 +212,8 @@ TEST(Convolution, TexelsThatCancelKeepTheirBound) {
 // averages whose double sums lose a texel (2^40 + 2^-20 - 2^40 averages to 0), averages
 // rounded to the nearest float (1 + 2^-25 stored as 1), products below the floats (1e-23
 // squared), and products beyond them that the integral is not (2e19 squared over 64 texels;
-// two spikes of 4e20 that never meet, whose integral is 0). Each once printed a bound it broke,
-// or threw.
+// two spikes of 4e20 that never meet, whose integral is 0). Each of the first four once printed
+// a bound it broke, or threw.
 TEST(Convolution, FloatTreesHoldTheirBoundAtTheEdgesOfTheirArithmetic) {
   struct Case {
     const char* name;
@@ -255,6 +256,41 @@ TEST(Convolution, FloatTreesHoldTheirBoundAtTheEdgesOfTheirArithmetic) {
     EXPECT_EQ(convolve_value(a.view(), b.view())[0], convolve(a.view(), b.view()).value[0])
         << k.name;
   }
+}
+
+// Where a float descent's bound or another group's sums leave the floats but group 0's value
+// does not, the value stays the descent's (the values alone give the same bits) and so does the
+// bound of every entry point: a quadrant of +-1.5e38 (mean 0) beside small constants, cut at its
+// root quadrants, whose bound overflows; and a second group of 1e30 against 1e10, whose
+// products overflow.
+TEST(Convolution, FloatTreesKeepTheirValueWhereOnlyTheirBoundOrOtherGroupsOverflow) {
+  Grid spread(4, 1);
+  for (int y = 0; y < 4; ++y)
+    for (int x = 0; x < 4; ++x) {
+      const int q = (x >= 2 ? 1 : 0) + (y >= 2 ? 2 : 0);
+      spread.at(0, 0, x, y) = q == 0   ? ((x + y) % 2 == 0 ? 1.5e38f : -1.5e38f)
+                              : q == 1 ? 1.0f
+                                       : 0x1p-12f;
+    }
+  const Quadtree a = project(spread, {.tolerance = 0, .max_depth = 1});
+  const Convolution conv = convolve(a.view(), a.view());
+  EXPECT_EQ(convolve_value(a.view(), a.view())[0], conv.value[0]);
+  const double exact = dense_product({&spread, &spread}, 0, 0);
+  EXPECT_FALSE(std::abs(double(conv.value[0]) - exact) > double(conv.bound[0]))
+      << conv.value[0] << " +- " << conv.bound[0] << " against " << exact;
+
+  Grid groups(2, 1, 2), light(2, 1);
+  for (int k = 0; k < 4; ++k) {
+    groups.texels[std::size_t(k)] = 1;
+    groups.texels[std::size_t(4 + k)] = 1e30f;
+    light.texels[std::size_t(k)] = 1e10f;
+  }
+  const Quadtree ga = project(groups, {.tolerance = 0}), gb = project(light, {.tolerance = 0});
+  const GroupConvolution both = convolve_groups(ga.view(), gb.view());
+  const Convolution first = convolve(ga.view(), gb.view());
+  EXPECT_EQ(both.value[0], first.value);
+  EXPECT_EQ(both.bound, first.bound);
+  EXPECT_EQ(both.value[1][0], std::numeric_limits<float>::infinity());  // 1e40 is beyond floats
 }
 
 INSTANTIATE_TEST_SUITE_P(Shapes, ConvolutionProperties,

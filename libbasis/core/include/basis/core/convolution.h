@@ -29,15 +29,20 @@ struct Convolution {
 // different resolutions convolve as the piecewise-constant functions they are. The value is
 // the two trees' integral, summed in floats; the bound covers its difference to the product of
 // the source grids: on every quadrant where the descent stops it adds
-// area * min(ea * eb, ea * |b|, eb * |a|), ea, eb the quadrants' error bounds (ea * |b| only when
-// b is known to be >= 0, QuadtreeView::non_negative, eb * |a| likewise, so that it holds for
-// functions of any sign), and then the float sums' rounding, (2 P + 8) 2^-24 of the sum of
-// area |a b| (P the pairs visited; in double for convolve_scalar). Throws std::overflow_error
-// for a value beyond the floats.
+// area * min(ea eb + |a| rb + |b| ra, ea (|b| + rb) + |a| rb, eb (|a| + ra) + |b| ra), ea, eb the
+// quadrants' error bounds and ra, rb how far their stored averages may lie from their texels'
+// means (half a float step and the double sums' 2^-48 of the largest texel); the second only
+// when b is known to be >= 0 (QuadtreeView::non_negative), the third likewise, so that it holds
+// for functions of any sign; and then the float sums' rounding, (2 P + 8) 2^-24 of the sum of
+// area |a b| (P the pairs visited; in double for convolve_scalar). Where the float sums of the
+// value leave the floats (products of texels beyond about 1.8e19), the descent is done again in
+// double; a bound beyond the floats is +infinity; a value beyond them throws
+// std::overflow_error.
 // For the hemisphere integral of A * B * cos in the cosine-weighted map, multiply by pi.
 Convolution convolve(const QuadtreeView& a, const QuadtreeView& b);
 
-// The value alone: the fastest path (SSE, four quadrants per instruction).
+// The value alone: the fastest path (SSE, four quadrants per instruction); convolve()'s value to
+// the bit (infinite where that throws).
 Rgb convolve_value(const QuadtreeView& a, const QuadtreeView& b);
 
 // Portable recursive scalar implementation of convolve (double accumulation), the reference
