@@ -322,9 +322,6 @@ struct FloatSums {
   std::uint64_t pairs = 0;
 };
 
-// How the SSE descent sums, in floats: a lane takes a pair's term or none per pair, and sums of
-// nested descents (each after dozens of its own pairs) and the lanes' sums add fewer than as many
-// again; a term below the normal floats may lose up to 2^-125 (with or without subnormals).
 // Whether group g's float sums stayed finite: a product of two texels beyond the floats (from
 // about 1.8e19 each) leaves them, even where the integral does not; the scalar descent, in
 // double, then takes over. (A bound or magnitude beyond the floats makes the bound +infinity:
@@ -337,6 +334,9 @@ bool finite_values(const FloatSums<GA>& sums, int g) {
   return finite;
 }
 
+// How the SSE descent sums, in floats: a lane takes a pair's term or none per pair, and sums of
+// nested descents (each after dozens of its own pairs) and the lanes' sums add fewer than as many
+// again; a term below the normal floats may lose up to 2^-125 (subnormal or flushed to zero).
 template <int GA>
 FloatSummation sse_summation(const FloatSums<GA>& sums) {
   return {2 * double(sums.pairs) + 8, 0x1p-24, 0x1p-125};
