@@ -190,6 +190,8 @@ void QuadtreeProjector::build_levels(const Grid& grid, const ProjectionOptions& 
     offset += cells;
   }
 
+  // Averages first (the bounded planes' with their deviations, in one pass), then the bounds.
+  build_deviations(grid);
   build_means(grid);
   for (int k = levels_; k >= 1; --k)
     for (int p = 0; p < bounded_; ++p) {
@@ -202,7 +204,6 @@ void QuadtreeProjector::build_levels(const Grid& grid, const ProjectionOptions& 
       else
         build_level(values(grid, k, p), texels ? nullptr : errors(k, p), 1 << k, errors(k - 1, p));
     }
-  build_deviations(grid);
   // Bounds of texels near the float range can overflow it (averages cannot; checked all the same).
   if (!all_finite(value_storage_) || !all_finite(error_storage_) || !all_finite(deviation_storage_))
     throw std::overflow_error("error bounds of texels overflow float (largest 3.4e38)");
@@ -213,7 +214,7 @@ void QuadtreeProjector::build_means(const Grid& grid) {
   // sums of each level; each cell's mean is then rounded once to the nearest float.
   std::vector<double>& fine = moments_[0];
   std::vector<double>& coarse = moments_[2];
-  for (int p = 0; p < planes_; ++p) {
+  for (int p = bounded_; p < planes_; ++p) {
     const std::span<const float> texels = grid.plane(p / channels_, p % channels_);
     fine.assign(texels.begin(), texels.end());
     for (int k = levels_; k >= 1; --k) {
@@ -250,9 +251,10 @@ void QuadtreeProjector::build_deviations(const Grid& grid) {
     offset += cells;
   }
   // Bottom-up in double, per bounded plane: each cell's mean and sum of squared deviations of
-  // its texels (Chan et al.'s pairwise update, free of cancellation), then the RMS deviation
-  // from the cell's stored float average, rounded up. Levels alternate between two pairs of
-  // arrays so that the loop over a row has no aliasing and vectorises.
+  // its texels (Chan et al.'s pairwise update, free of cancellation), the mean stored as the
+  // nearest float (the cell's average), then the RMS deviation from that average, rounded up.
+  // Levels alternate between two pairs of arrays so that the loop over a row has no aliasing and
+  // vectorises.
   for (int p = 0; p < bounded_; ++p) {
     const std::span<const float> texels = grid.plane(p / channels_, p % channels_);
     moments_[0].assign(texels.begin(), texels.end());
@@ -267,7 +269,7 @@ void QuadtreeProjector::build_deviations(const Grid& grid) {
       const double* fine_squares = moments_[from + 1].data();
       double* coarse_mean = moments_[2 - from].data();
       double* coarse_squares = moments_[3 - from].data();
-      const float* stored = values(grid, k - 1, p);
+      float* stored = scratch_values(k - 1, p);
       float* deviation = deviations(k - 1, p);
       const double inverse_texels = 1 / (4 * texels_per_child);
       for (int y = 0; y < coarse; ++y) {
@@ -284,6 +286,7 @@ void QuadtreeProjector::build_deviations(const Grid& grid) {
                                                 (d - m) * (d - m) + (e - m) * (e - m));
           coarse_mean[row + x] = m;
           coarse_squares[row + x] = m2;
+          stored[row + x] = float(m);
           const double offset_from_stored = m - double(stored[row + x]);
           const double rms =
               std::sqrt(m2 * inverse_texels + offset_from_stored * offset_from_stored);

@@ -62,9 +62,10 @@ class QuadtreeProjector {
   // planes the cut looks at, rounded up so that they bound every texel's distance from the
   // stored average.
   void build_levels(const Grid& grid, const ProjectionOptions& options, int bounded);
-  // The averages of every cell of levels 0 .. log2(N) - 1 for every plane: summed in double and
-  // rounded once to the nearest float: within half a float's step of the texels' mean, plus the
-  // double sums' rounding (at most 2^-48 of the largest texel under the cell).
+  // The averages of every cell of levels 0 .. log2(N) - 1 for the planes without bounds (the
+  // bounded ones get theirs from build_deviations): summed in double and rounded once to the
+  // nearest float, within half a float's step of the texels' mean, plus the double sums'
+  // rounding (at most 2^-48 of the largest texel under the cell).
   void build_means(const Grid& grid);
   // Top-down: emits nodes in depth-first pre-order, refining the quadrants whose bound exceeds
   // the plane's tolerance, down to max_depth.
@@ -78,6 +79,8 @@ class QuadtreeProjector {
   // RMS deviation of the texels under each cell of level k from its stored average, bounded
   // plane p, rounded up (levels 0 .. log2(N) - 1).
   float* deviations(int k, int p) { return deviation_planes_[std::size_t(k) * bounded_ + p]; }
+  // The bounded planes' averages (summed in double, each the nearest float to its texels' mean)
+  // and their RMS deviations.
   void build_deviations(const Grid& grid);
   // Exact bounds: smallest (0) and largest (1) texel under each cell of level k, plane p.
   float* extremes(int k, int p, int which) {
