@@ -38,6 +38,28 @@ void check_compatible(const PackedShape& a, const PackedShape& b) {
 // texels' mean (projection.h): the factor 1 + 2^-10 covers that on both sides.
 constexpr double kRoundingPerMagnitude = 2 * kHalfRounding * (1 + 0x1p-10), kRoundingFloor = 0x1p-9;
 
+// How far a descent's own sums may lie from exact, as a fraction of the sum of the magnitudes
+// its rounding terms take (each at least |a b|: a shared word's share at least its value, which
+// lies below 512 of its steps), with `unit` the sums' unit roundoff (2^-24 in floats, 2^-53 in
+// double): Higham's gamma_n = n unit / (1 - n unit) for sums through n additions. A pair's two
+// nodes cover one place, so no node of either tree is in two pairs, and an accumulator takes
+// fewer terms than the smaller tree has nodes; then two additions a level (a level's sums into
+// the descent's, a nested descent's into its parent's) and the lanes' sum. Each term was itself
+// computed in a few roundings, which 16 more cover.
+double sums_rounding(const PackedTreeView& a, const PackedTreeView& b, double unit) {
+  const double additions =
+      double(std::min(a.node_count(), b.node_count())) + 4.0 * kMaxTreeLevels + 16;
+  return additions * unit / (1 - additions * unit);
+}
+
+// The certified bound of a descent whose bound terms (the values' rounding included) summed to
+// `terms` and whose magnitudes to `magnitudes` (in the scales' units), each sum possibly below
+// exact by the factor 1 - gamma, and whose value's sum may lie gamma times the magnitudes from
+// exact (sums_rounding); then the rounding floor. The last factor covers this line's own.
+double descent_bound(double terms, double magnitudes, double gamma, double floor) {
+  return ((terms + gamma * magnitudes) / (1 - gamma) + floor) * (1 + 0x1p-40);
+}
+
 // Tree a as the scalar descent reads it: one group, or several combined with weights into one
 // function, whose value is sum_g w_g a_g, whose bounds are sum_g |w_g| times the groups' (the
 // RMS and the largest deviation are norms), and whose halves' rounding scales with
@@ -143,12 +165,12 @@ GroupConvolution scalar(const PackedTreeView& a, const PackedTreeView& b, int gr
                          packed_pair_bound(weighted, b, a.scales().value_scale), sums);
   const double floor = kRoundingFloor * weighted.total_weight() * double(a.scales().value_scale) *
                        double(b.scales().value_scale);
-  for (double& bound : sums.bound)
-    bound += floor;
+  const double gamma = sums_rounding(a, b, 0x1p-53);
   GroupConvolution result;
   for (int c = 0; c < 3; ++c) {
     const int lane = channels == 1 ? 0 : c;
-    const CertifiedFloat group0 = certified_float(sums.value[0][lane], sums.bound[lane]);
+    const CertifiedFloat group0 = certified_float(
+        sums.value[0][lane], descent_bound(sums.bound[lane], sums.magnitude[lane], gamma, floor));
     result.value[0][c] = group0.value;
     result.bound[c] = group0.bound;
     for (int g = 1; g < groups; ++g)
@@ -978,10 +1000,13 @@ GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, 
   for (int c = 0; c < 3; ++c) {
     const int lane = C == 1 ? 0 : c;
     double bound = std::numeric_limits<double>::infinity();
-    if constexpr (kBound)
-      bound = double(sums.bound_of(lane)) * k.bound_scale +
-              (kRoundingPerMagnitude * sums.magnitude_of(lane) + kRoundingFloor * k.total_weight) *
-                  k.value_scale;
+    if constexpr (kBound) {
+      const double magnitudes = double(sums.magnitude_of(lane)) * k.value_scale;
+      bound = descent_bound(
+          double(sums.bound_of(lane)) * k.bound_scale + kRoundingPerMagnitude * magnitudes,
+          magnitudes, sums_rounding(a, b, 0x1p-24),
+          kRoundingFloor * k.total_weight * k.value_scale);
+    }
     const CertifiedFloat group0 =
         certified_float(double(sums.value_of(0, lane)) * k.value_scale, bound);
     result.value[0][c] = group0.value;

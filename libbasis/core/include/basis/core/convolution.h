@@ -130,7 +130,10 @@ inline Convolution certified_convolution(const std::array<double, 3>& value,
 // the integral of (A - a)(B - b) by their product), ea, eb their largest-deviation bounds
 // (for a non-negative other side: ea |b| needs B >= 0, which only a capture's shared-exponent
 // words are known to be; against halves, which may hold a signed grid, the alternative adds
-// sa sb). Channel counts equal or one of them 1.
+// sa sb); then, summed over those quadrants, the values' rounding (about 2^-10 of area |a b|,
+// half a step of either side's halves) and the sums' own: gamma_n of the same magnitudes
+// (Higham's bound, n unit / (1 - n unit), unit 2^-24 and in double for convolve_scalar 2^-53, n
+// the smaller tree's nodes plus 52). Channel counts equal or one of them 1.
 Convolution convolve(const PackedTreeView& a, const PackedTreeView& b,
                      const ConvolutionOptions& options = {});
 
