@@ -583,6 +583,16 @@ TEST(CertifiedFloat, RoundsTheBoundUpAndCoversTheValuesRounding) {
   }
   EXPECT_EQ(certified_float(1, INFINITY).bound, INFINITY);
   EXPECT_THROW(certified_float(4e38, 0), std::overflow_error);
+  // Values that round to the largest float are that float, with their rounding in the bound;
+  // from half a step above it on (2^128 - 2^103), they round to infinity.
+  const double largest = std::numeric_limits<float>::max();
+  for (const double above : {0x1p90, 0x1p102, 0x1p103 - 0x1p76}) {
+    const CertifiedFloat f = certified_float(-(largest + above), 1);
+    EXPECT_EQ(f.value, -std::numeric_limits<float>::max()) << above;
+    EXPECT_GE(double(f.bound), above + 1) << above;
+  }
+  EXPECT_THROW(certified_float(largest + 0x1p103, 0), std::overflow_error);
+  EXPECT_THROW(certified_float(-0x1p128, 0), std::overflow_error);
   EXPECT_EQ(certified_float(1, 4e38).bound, INFINITY);
   EXPECT_THROW(certified_float(std::nan(""), 0), std::overflow_error);
 }

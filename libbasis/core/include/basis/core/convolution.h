@@ -87,7 +87,8 @@ struct ConvolutionOptions {
 // A result computed in double as a float value and a float bound that still holds for it: the
 // value rounded to nearest, the bound plus that rounding, rounded up (so that results below the
 // normal floats keep a bound that is not zero; a bound beyond the floats becomes +infinity).
-// std::overflow_error when the value lies beyond the largest float or is NaN.
+// std::overflow_error when the value rounds beyond the largest float (from half a step above it
+// on) or is NaN.
 struct CertifiedFloat {
   float value = 0;
   float bound = 0;
@@ -95,7 +96,9 @@ struct CertifiedFloat {
 [[noreturn]] void throw_beyond_floats(double value);
 inline CertifiedFloat certified_float(double value, double bound) {
   constexpr double kLargest = std::numeric_limits<float>::max();
-  if (!(std::abs(value) <= kLargest)) throw_beyond_floats(value);
+  // Halfway from the largest float to 2^128, which rounds to infinity (the largest is odd).
+  constexpr double kRoundsBeyond = kLargest + 0x1p103;
+  if (!(std::abs(value) < kRoundsBeyond)) throw_beyond_floats(value);
   CertifiedFloat out;
   out.value = float(value);
   const double widened = bound + std::abs(value - double(out.value));
