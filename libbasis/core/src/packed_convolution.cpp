@@ -40,16 +40,19 @@ constexpr double kRoundingPerMagnitude = 2 * kHalfRounding * (1 + 0x1p-10), kRou
 
 // How far a descent's own sums may lie from exact, as a fraction of the sum of the magnitudes
 // its rounding terms take (each at least |a b|: a shared word's share at least its value, which
-// lies below 512 of its steps), with `unit` the sums' unit roundoff (2^-24 in floats, 2^-53 in
-// double): Higham's gamma_n = n unit / (1 - n unit) for sums through n additions. A pair's two
-// nodes cover one place, so no node of either tree is in two pairs, and an accumulator takes
-// fewer terms than the smaller tree has nodes; then two additions a level (a level's sums into
-// the descent's, a nested descent's into its parent's) and the lanes' sum. Each term was itself
-// computed in a few roundings, which 16 more cover.
-double sums_rounding(const PackedTreeView& a, const PackedTreeView& b, double unit) {
-  const double additions =
-      double(std::min(a.node_count(), b.node_count())) + 4.0 * kMaxTreeLevels + 16;
+// lies below 512 of its steps), for sums through `additions` additions with unit roundoff `unit`
+// (2^-24 in floats, 2^-53 in double): Higham's gamma_n = n unit / (1 - n unit).
+double sums_rounding(double additions, double unit) {
   return additions * unit / (1 - additions * unit);
+}
+
+// The additions a SIMD descent's product term goes through, at most: a pair's two nodes cover
+// one place, so no node of either tree is in two pairs, and a lane takes fewer terms than the
+// smaller tree has nodes; then two additions a level (a level's sums into the descent's, a
+// nested descent's into its parent's) and the lanes' sum. Each term was itself computed in a
+// few roundings, which 16 more cover.
+double simd_additions(const PackedTreeView& a, const PackedTreeView& b) {
+  return double(std::min(a.node_count(), b.node_count())) + 4.0 * kMaxTreeLevels + 16;
 }
 
 // The certified bound of a descent whose bound terms (the values' rounding included) summed to
@@ -165,12 +168,16 @@ GroupConvolution scalar(const PackedTreeView& a, const PackedTreeView& b, int gr
                          packed_pair_bound(weighted, b, a.scales().value_scale), sums);
   const double floor = kRoundingFloor * weighted.total_weight() * double(a.scales().value_scale) *
                        double(b.scales().value_scale);
-  const double gamma = sums_rounding(a, b, 0x1p-53);
+  // One accumulator a channel takes every stopped quadrant, in double. Its terms' magnitudes,
+  // groups' included (sum_g |w_g a_g| |b|, which their double sums round against), are at most
+  // the rounding terms of the bound over kRoundingPerMagnitude.
+  const double gamma = sums_rounding(double(sums.stops) + 16, 0x1p-53);
   GroupConvolution result;
   for (int c = 0; c < 3; ++c) {
     const int lane = channels == 1 ? 0 : c;
     const CertifiedFloat group0 = certified_float(
-        sums.value[0][lane], descent_bound(sums.bound[lane], sums.magnitude[lane], gamma, floor));
+        sums.value[0][lane],
+        descent_bound(sums.bound[lane], sums.bound[lane] / kRoundingPerMagnitude, gamma, floor));
     result.value[0][c] = group0.value;
     result.bound[c] = group0.bound;
     for (int g = 1; g < groups; ++g)
@@ -1002,10 +1009,16 @@ GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, 
     double bound = std::numeric_limits<double>::infinity();
     if constexpr (kBound) {
       const double magnitudes = double(sums.magnitude_of(lane)) * k.value_scale;
+      // Products below the normal floats (tiny weights) lose up to 2^-150 an operation, in the
+      // sums' units: fewer than 2^7 n operations reach a channel's value, as many its magnitudes
+      // and its bound.
+      const double additions = simd_additions(a, b);
+      const double underflow =
+          additions * 0x1p-142 * k.value_scale + additions * 0x1p-143 * k.bound_scale;
       bound = descent_bound(
           double(sums.bound_of(lane)) * k.bound_scale + kRoundingPerMagnitude * magnitudes,
-          magnitudes, sums_rounding(a, b, 0x1p-24),
-          kRoundingFloor * k.total_weight * k.value_scale);
+          magnitudes, sums_rounding(additions, 0x1p-24),
+          kRoundingFloor * k.total_weight * k.value_scale + underflow);
     }
     const CertifiedFloat group0 =
         certified_float(double(sums.value_of(0, lane)) * k.value_scale, bound);
