@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "gradual_underflow.h"
+
 #if defined(__SSE4_1__) && defined(__F16C__)
 #include <immintrin.h>
 #endif
@@ -292,6 +294,7 @@ PackedTree pack_folded(const std::vector<FoldedNode>& nodes, int resolution, int
 }  // namespace
 
 FoldedTree fold(std::span<const WeightedTerm> terms) {
+  const detail::GradualUnderflow gradual_underflow;
   check_terms(terms);
 #if defined(__SSE4_1__) && defined(__F16C__)
   int channels = 1;

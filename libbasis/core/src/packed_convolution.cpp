@@ -11,6 +11,7 @@
 #include "basis/core/convolution.h"
 #include "basis/core/folded_tree.h"
 #include "basis/core/number_text.h"
+#include "gradual_underflow.h"
 #include "scalar_descent.h"
 
 // The SIMD descent needs SSE4.1 and F16C; an AVX-512 (F, BW, VL) build also takes RGB pairs
@@ -154,6 +155,7 @@ auto packed_pair_bound(const WeightedTree& a, const PackedTreeView& b, double va
 
 GroupConvolution scalar(const PackedTreeView& a, const PackedTreeView& b, int groups,
                         double accuracy, std::span<const float> weights = {}) {
+  const detail::GradualUnderflow gradual_underflow;
   check_compatible(a.shape(), b.shape());
   const WeightedTree weighted(a, weights);
   const int channels = std::max(a.shape().channels, b.shape().channels);
@@ -990,6 +992,7 @@ template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB, bool kFolded
           bool kSharedWordsB = false, bool kBound = true>
 GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, double accuracy,
                               std::span<const float> weights, float floor_weight = 0) {
+  const detail::GradualUnderflow gradual_underflow;
   constexpr int C = CA > CB ? CA : CB;
 #if defined(__AVX512F__) && defined(__AVX512BW__) && defined(__AVX512VL__)
   using Pairs =
@@ -1009,12 +1012,14 @@ GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, 
     double bound = std::numeric_limits<double>::infinity();
     if constexpr (kBound) {
       const double magnitudes = double(sums.magnitude_of(lane)) * k.value_scale;
-      // Products below the normal floats (tiny weights) lose up to 2^-150 an operation, in the
-      // sums' units: fewer than 2^7 n operations reach a channel's value, as many its magnitudes
-      // and its bound.
+      // Results below the normal floats lose up to 2^-150 an operation, in the units they are
+      // computed in: fewer than 2^7 n operations reach a channel's value in the sums' units, as
+      // many its magnitudes and its bound; and a weighted group's products (tiny weights) lose
+      // it in a's units, two operations each, before they are multiplied by b's value (below
+      // 2^16 in its units) and an area (the areas summing to 1): at most 3 x 2^-133 a channel.
       const double additions = simd_additions(a, b);
-      const double underflow =
-          additions * 0x1p-142 * k.value_scale + additions * 0x1p-143 * k.bound_scale;
+      const double underflow = (additions * 0x1p-142 + 3 * 0x1p-132) * k.value_scale +
+                               additions * 0x1p-143 * k.bound_scale;
       bound = descent_bound(
           double(sums.bound_of(lane)) * k.bound_scale + kRoundingPerMagnitude * magnitudes,
           magnitudes, sums_rounding(additions, 0x1p-24),

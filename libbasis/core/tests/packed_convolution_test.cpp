@@ -12,6 +12,10 @@
 #include <utility>
 #include <vector>
 
+#if defined(__SSE2__)
+#include <xmmintrin.h>
+#endif
+
 #include "basis/core/convolution.h"
 #include "basis/core/dense.h"
 #include "basis/core/folded_tree.h"
@@ -524,17 +528,26 @@ TEST(PackedConvolution, FloatSumsThatLoseTheirSmallTermsKeepTheirBound) {
   EXPECT_EQ(folded, folding_available());
 }
 
-// Weights below the normal floats: the weighted products and the sums of them lose bits to
-// underflow (2^-150 an operation at worst), which no term relative to the magnitudes covers;
-// the bound adds that underflow too. Against the texels' product in long double.
-TEST(PackedConvolution, WeightsBelowTheNormalFloatsKeepTheirBound) {
-  std::mt19937 rng(11);
-  std::uniform_real_distribution<float> unit(1, 2);
-  const int n = 16;
+// Weighted descents whose weights fall below the normal floats: trees a (two groups) and b, the
+// weights, and the texels' product in long double. The weighted products and the sums of them
+// lose bits to underflow (2^-150 an operation at worst), which no term relative to the
+// magnitudes covers.
+struct TinyWeights {
+  PackedTree a, b;
+  float w[2];
+  long double exact;
+  std::string what;
+};
+
+std::vector<TinyWeights> tiny_weight_cases() {
+  std::vector<TinyWeights> cases;
   // Group 1 sets the tree's value scale (one texel of 30,000), so that group 0's texels, 2^-12
   // of that, times the weight, fall below the normal floats in the descent's units; b's texels of
   // 2^40 bring the result back into the normal floats, where the loss shows (0 for 5.4e-35,
-  // with a bound of 1.2e-38, on the build before).
+  // with a bound of 1.2e-38, before the bound took underflow).
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> unit(1, 2);
+  const int n = 16;
   Grid grid_a(n, 1, 2), grid_b(n, 1);
   for (int y = 0; y < n; ++y)
     for (int x = 0; x < n; ++x) {
@@ -543,29 +556,94 @@ TEST(PackedConvolution, WeightsBelowTheNormalFloatsKeepTheirBound) {
     }
   for (float& t : grid_b.texels)
     t = unit(rng) * 0x1p40f;
-  const PackedTree a =
-      pack(project(grid_a, {.tolerance = 0, .cut_on_all_groups = true, .group_tolerance_scale = 1}),
-           BoundKind::l2, 2);
+  const ProjectionOptions both_groups{
+      .tolerance = 0, .cut_on_all_groups = true, .group_tolerance_scale = 1};
+  const PackedTree a = pack(project(grid_a, both_groups), BoundKind::l2, 2);
   const PackedTree b = pack(project(grid_b, {.tolerance = 0}));
   for (const float scale : {0x1p-100f, 0x1p-130f, 0x1p-143f, 0x1p-149f}) {
-    const float w[2] = {scale, 0};
     long double exact = 0;
     for (int y = 0; y < n; ++y)
       for (int x = 0; x < n; ++x)
-        exact += ((long double)w[0] * grid_a.at(0, 0, x, y) +
-                  (long double)w[1] * grid_a.at(1, 0, x, y)) *
-                 grid_b.at(0, 0, x, y);
-    exact /= n * n;
-    for (const Convolution& r : {convolve_weighted(a.view(), w, b.view()),
-                                 convolve_weighted_scalar(a.view(), w, b.view())})
-      for (int c = 0; c < 3; ++c) {
-        EXPECT_GT(r.bound[c], 0) << scale;
-        EXPECT_LE(std::abs((long double)r.value[c] - exact), (long double)r.bound[c])
-            << "weight " << scale << ", channel " << c << ", value " << r.value[c] << ", exact "
-            << double(exact);
-      }
+        exact += (long double)scale * grid_a.at(0, 0, x, y) * grid_b.at(0, 0, x, y);
+    cases.push_back({a, b, {scale, 0}, exact / (n * n), "random, weight " + std::to_string(scale)});
   }
+  // Constants: a weighted product of half the smallest subnormal (2^-149 x 0.5 in a's units of 1),
+  // which rounds to 0, times b's largest half (65,504): 2^-135 of the result lost, where a term
+  // growing with the trees' nodes allowed half that.
+  Grid half(2, 1, 2), largest(2, 1);
+  for (int k = 0; k < 4; ++k) {
+    half.texels[std::size_t(k)] = 0.5f;
+    half.texels[std::size_t(4 + k)] = 30000.0f;
+    largest.texels[std::size_t(k)] = 65504.0f;
+  }
+  cases.push_back({pack(project(half, both_groups), BoundKind::l2, 2),
+                   pack(project(largest, {.tolerance = 0})),
+                   {0x1p-149f, 0},
+                   (long double)0x1p-149f * 0.5L * 65504.0L,
+                   "constants"});
+  return cases;
 }
+
+// The SIMD and scalar weighted descents of a case.
+std::vector<Convolution> tiny_weight_results(const TinyWeights& k) {
+  return {convolve_weighted(k.a.view(), k.w, k.b.view()),
+          convolve_weighted_scalar(k.a.view(), k.w, k.b.view())};
+}
+
+void expect_tiny_weights_within_their_bound(const TinyWeights& k,
+                                            const std::vector<Convolution>& results) {
+  for (const Convolution& r : results)
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_GT(r.bound[c], 0) << k.what;
+      EXPECT_LE(std::abs((long double)r.value[c] - k.exact), (long double)r.bound[c])
+          << k.what << ", channel " << c << ", value " << r.value[c] << ", exact "
+          << double(k.exact);
+    }
+}
+
+TEST(PackedConvolution, WeightsBelowTheNormalFloatsKeepTheirBound) {
+  for (const TinyWeights& k : tiny_weight_cases())
+    expect_tiny_weights_within_their_bound(k, tiny_weight_results(k));
+}
+
+#if defined(__SSE2__)
+// A caller that runs with flush-to-zero and denormals-are-zero set (as renderers often do): the
+// descents keep subnormals while they run, so that their bounds hold, and the caller has its
+// modes back afterwards. The trees are made first, in the default modes. Without the descents'
+// own modes, the weights and the texels below the normal floats read as 0.
+TEST(PackedConvolution, FlushToZeroInTheCallerKeepsTheBound) {
+  const std::vector<TinyWeights> cases = tiny_weight_cases();
+  // Float trees of texels below the normal floats against large ones: about 10^-10 each.
+  Grid tiny(8, 1), large(8, 1);
+  for (int k = 0; k < 64; ++k) {
+    tiny.texels[std::size_t(k)] = 1e-40f * float(1 + k % 3);
+    large.texels[std::size_t(k)] = 1e30f;
+  }
+  const Quadtree tiny_tree = project(tiny, {.tolerance = 0.05});
+  const Quadtree large_tree = project(large, {.tolerance = 0.05});
+  long double exact = 0;
+  for (int k = 0; k < 64; ++k)
+    exact += (long double)tiny.texels[std::size_t(k)] * large.texels[std::size_t(k)] / 64;
+  constexpr unsigned kModes = _MM_FLUSH_ZERO_MASK | _MM_DENORMALS_ZERO_MASK;
+  const unsigned saved = _mm_getcsr();
+  // Only the descents run in the caller's modes; the checks, which compare subnormals, after.
+  _mm_setcsr(saved | kModes);
+  std::vector<std::vector<Convolution>> results;
+  for (const TinyWeights& k : cases)
+    results.push_back(tiny_weight_results(k));
+  const Convolution floats = convolve(tiny_tree.view(), large_tree.view());
+  const Convolution floats_scalar = convolve_scalar(tiny_tree.view(), large_tree.view());
+  const unsigned after = _mm_getcsr();
+  _mm_setcsr(saved);
+  EXPECT_EQ(after & kModes, kModes);
+  for (std::size_t i = 0; i < cases.size(); ++i)
+    expect_tiny_weights_within_their_bound(cases[i], results[i]);
+  for (const Convolution& r : {floats, floats_scalar})
+    for (int c = 0; c < 3; ++c)
+      EXPECT_LE(std::abs((long double)r.value[c] - exact), (long double)r.bound[c])
+          << "float trees, channel " << c << ", value " << r.value[c];
+}
+#endif
 
 // An accuracy target stops on the bound: asking for one without the bound is an error, on
 // every path.

@@ -1,5 +1,7 @@
 // Convolution of quadtrees (Vostryakov, section 2.3): the integral over the unit square of the
-// product of two or more trees, by simultaneous descent, with a certified error bound.
+// product of two or more trees, by simultaneous descent, with a certified error bound. Every
+// function here runs with gradual underflow, whatever the caller's flush-to-zero and
+// denormals-are-zero modes, which it gives back on return.
 #pragma once
 
 #include <array>

@@ -44,7 +44,8 @@ bool folding_available();
 
 // Folds 1 to kMaxFoldedTerms terms of equal resolution, l2 bounds on every weighted group and
 // no exact texels (table entries); std::invalid_argument otherwise, or for non-finite weights;
-// std::logic_error in a build without folding_available().
+// std::logic_error in a build without folding_available(). Runs with gradual underflow, as the
+// convolutions do (convolution.h).
 FoldedTree fold(std::span<const WeightedTerm> terms);
 
 // The integral over [0,1]^2 of the folded sum times group 0 of b and its bound, in one descent:
