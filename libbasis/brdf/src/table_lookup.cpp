@@ -7,6 +7,8 @@
 #include <stdexcept>
 #include <vector>
 
+#include "basis/core/gradual_underflow.h"
+
 namespace basis {
 
 std::array<TableTap, 4> lookup_taps(const BrdfTableView& table, const Vec3& wo,
@@ -49,6 +51,7 @@ Convolution interpolate(const std::array<TableTap, 4>& taps, Entry entry) {
 
 Convolution reflect(const BrdfTableView& table, const PackedTreeView& radiance, const Vec3& wo,
                     const LookupOptions& options) {
+  const GradualUnderflow gradual_underflow;  // the bound assumes it (gradual_underflow.h)
   const std::array<TableTap, 4> taps = lookup_taps(table, wo, options.interpolation);
   return interpolate(taps, [&](const TableTap& tap) {
     return convolve_tap(table, tap, radiance, options.convolution);
@@ -121,6 +124,7 @@ EntriesAtWo entries_at(const BrdfTableView& table, const Vec3& wo, WoInterpolati
 
 Convolution reflect(const BrdfTableView& table, const EntriesAtWo& entries,
                     const PackedTreeView& radiance, const ConvolutionOptions& options) {
+  const GradualUnderflow gradual_underflow;  // the bound assumes it (gradual_underflow.h)
   if (!entries.folded)
     return interpolate(entries.taps, [&](const TableTap& tap) {
       return convolve_tap(table, tap, radiance, options);
@@ -139,7 +143,8 @@ Convolution reflect(const BrdfTableView& table, const EntriesAtWo& entries,
 Convolution reflect_tilted(const BrdfTableView& table, const PackedTreeView& radiance,
                            const Vec3& wo_shading, const Tilt& tilt, TiltCompensation mode,
                            const LookupOptions& options) {
-  outgoing_direction(wo_shading);  // refuses wo below the horizon, zero or not finite
+  const GradualUnderflow gradual_underflow;  // the bound assumes it (gradual_underflow.h)
+  outgoing_direction(wo_shading);            // refuses wo below the horizon, zero or not finite
   if (!std::isfinite(tilt.x) || !std::isfinite(tilt.y))
     throw std::invalid_argument("tilt is not finite");
   if (tilt.angle() > kLargestTilt * (1 + 1e-9))

@@ -1,4 +1,5 @@
 #include "basis/core/convolution.h"
+#include "basis/core/gradual_underflow.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,7 +10,6 @@
 #include <stdexcept>
 #include <string>
 
-#include "gradual_underflow.h"
 #include "scalar_descent.h"
 
 #if defined(__SSE2__)
@@ -410,7 +410,7 @@ void descend_product(std::span<const QuadtreeView> factors, const FactorState* s
 }  // namespace
 
 GroupConvolution convolve_groups_scalar(const QuadtreeView& a, const QuadtreeView& b) {
-  const detail::GradualUnderflow gradual_underflow;
+  const GradualUnderflow gradual_underflow;
   check_compatible(a.shape(), b.shape());
   const int channels = std::max(a.shape().channels, b.shape().channels);
   const int groups = std::min(a.shape().groups, 3);
@@ -426,7 +426,7 @@ GroupConvolution convolve_groups_scalar(const QuadtreeView& a, const QuadtreeVie
 }
 
 Convolution convolve_scalar(const QuadtreeView& a, const QuadtreeView& b) {
-  const detail::GradualUnderflow gradual_underflow;
+  const GradualUnderflow gradual_underflow;
   check_compatible(a.shape(), b.shape());
   const int channels = std::max(a.shape().channels, b.shape().channels);
   ScalarSums sums;
@@ -436,7 +436,7 @@ Convolution convolve_scalar(const QuadtreeView& a, const QuadtreeView& b) {
 }
 
 Convolution convolve(const QuadtreeView& a, const QuadtreeView& b) {
-  const detail::GradualUnderflow gradual_underflow;
+  const GradualUnderflow gradual_underflow;
 #if defined(__SSE2__)
   check_compatible(a.shape(), b.shape());
   const int channels = std::max(a.shape().channels, b.shape().channels);
@@ -451,7 +451,7 @@ Convolution convolve(const QuadtreeView& a, const QuadtreeView& b) {
 }
 
 Rgb convolve_value(const QuadtreeView& a, const QuadtreeView& b) {
-  const detail::GradualUnderflow gradual_underflow;
+  const GradualUnderflow gradual_underflow;
   check_compatible(a.shape(), b.shape());
   const int channels = std::max(a.shape().channels, b.shape().channels);
 #if defined(__SSE2__)
@@ -466,7 +466,7 @@ Rgb convolve_value(const QuadtreeView& a, const QuadtreeView& b) {
 }
 
 GroupConvolution convolve_groups(const QuadtreeView& a, const QuadtreeView& b) {
-  const detail::GradualUnderflow gradual_underflow;
+  const GradualUnderflow gradual_underflow;
 #if defined(__SSE2__)
   check_compatible(a.shape(), b.shape());
   const int channels = std::max(a.shape().channels, b.shape().channels);
@@ -508,7 +508,7 @@ GroupConvolution convolve_groups(const QuadtreeView& a, const QuadtreeView& b) {
 }
 
 Rgb convolve_product(std::span<const QuadtreeView> factors) {
-  const detail::GradualUnderflow gradual_underflow;
+  const GradualUnderflow gradual_underflow;
   if (factors.empty() || factors.size() > kMaxFactors)
     throw std::invalid_argument("a product takes 1 to " + std::to_string(kMaxFactors) +
                                 " trees, got " + std::to_string(factors.size()));

@@ -1,4 +1,5 @@
 #include "basis/core/folded_tree.h"
+#include "basis/core/gradual_underflow.h"
 
 #include <algorithm>
 #include <bit>
@@ -6,8 +7,6 @@
 #include <stdexcept>
 #include <string>
 #include <vector>
-
-#include "gradual_underflow.h"
 
 #if defined(__SSE4_1__) && defined(__F16C__)
 #include <immintrin.h>
@@ -294,7 +293,7 @@ PackedTree pack_folded(const std::vector<FoldedNode>& nodes, int resolution, int
 }  // namespace
 
 FoldedTree fold(std::span<const WeightedTerm> terms) {
-  const detail::GradualUnderflow gradual_underflow;
+  const GradualUnderflow gradual_underflow;
   check_terms(terms);
 #if defined(__SSE4_1__) && defined(__F16C__)
   int channels = 1;

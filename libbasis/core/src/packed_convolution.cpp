@@ -10,8 +10,8 @@
 
 #include "basis/core/convolution.h"
 #include "basis/core/folded_tree.h"
+#include "basis/core/gradual_underflow.h"
 #include "basis/core/number_text.h"
-#include "gradual_underflow.h"
 #include "scalar_descent.h"
 
 // The SIMD descent needs SSE4.1 and F16C; an AVX-512 (F, BW, VL) build also takes RGB pairs
@@ -49,9 +49,9 @@ double sums_rounding(double additions, double unit) {
 
 // The additions a SIMD descent's product term goes through, at most: a pair's two nodes cover
 // one place, so no node of either tree is in two pairs, and a lane takes fewer terms than the
-// smaller tree has nodes; then two additions a level (a level's sums into the descent's, a
-// nested descent's into its parent's) and the lanes' sum. Each term was itself computed in a
-// few roundings, which 16 more cover.
+// smaller tree has nodes; then up to four a level (a level's sums into the descent's, a nested
+// descent's into its parent's, generously) and, with the lanes' sum and the few roundings each
+// term was computed in, 16 more.
 double simd_additions(const PackedTreeView& a, const PackedTreeView& b) {
   return double(std::min(a.node_count(), b.node_count())) + 4.0 * kMaxTreeLevels + 16;
 }
@@ -155,7 +155,6 @@ auto packed_pair_bound(const WeightedTree& a, const PackedTreeView& b, double va
 
 GroupConvolution scalar(const PackedTreeView& a, const PackedTreeView& b, int groups,
                         double accuracy, std::span<const float> weights = {}) {
-  const detail::GradualUnderflow gradual_underflow;
   check_compatible(a.shape(), b.shape());
   const WeightedTree weighted(a, weights);
   const int channels = std::max(a.shape().channels, b.shape().channels);
@@ -992,7 +991,6 @@ template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB, bool kFolded
           bool kSharedWordsB = false, bool kBound = true>
 GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, double accuracy,
                               std::span<const float> weights, float floor_weight = 0) {
-  const detail::GradualUnderflow gradual_underflow;
   constexpr int C = CA > CB ? CA : CB;
 #if defined(__AVX512F__) && defined(__AVX512BW__) && defined(__AVX512VL__)
   using Pairs =
@@ -1016,7 +1014,8 @@ GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, 
       // computed in: fewer than 2^7 n operations reach a channel's value in the sums' units, as
       // many its magnitudes and its bound; and a weighted group's products (tiny weights) lose
       // it in a's units, two operations each, before they are multiplied by b's value (below
-      // 2^16 in its units) and an area (the areas summing to 1): at most 3 x 2^-133 a channel.
+      // 2^16 in its units) and an area (the areas summing to 1): at most 3 x 2^-133 a channel
+      // for the values, and as much for the magnitudes beside them.
       const double additions = simd_additions(a, b);
       const double underflow = (additions * 0x1p-142 + 3 * 0x1p-132) * k.value_scale +
                                additions * 0x1p-143 * k.bound_scale;
@@ -1140,12 +1139,14 @@ Convolution result_of(const GroupConvolution& g, const ConvolutionOptions& optio
 
 Convolution convolve(const PackedTreeView& a, const PackedTreeView& b,
                      const ConvolutionOptions& options) {
+  const GradualUnderflow gradual_underflow;
   check_options(options);
   return result_of(dispatch(a, b, 1, options.accuracy, options.bound), options);
 }
 
 Convolution convolve(const FoldedTree& a, const PackedTreeView& b,
                      const ConvolutionOptions& options) {
+  const GradualUnderflow gradual_underflow;
   check_compatible(a.tree.shape, b.shape());
   check_options(options);
 #if defined(__SSE4_1__) && defined(__F16C__)
@@ -1160,12 +1161,14 @@ Convolution convolve(const FoldedTree& a, const PackedTreeView& b,
 
 Convolution convolve_scalar(const PackedTreeView& a, const PackedTreeView& b,
                             const ConvolutionOptions& options) {
+  const GradualUnderflow gradual_underflow;
   check_options(options);
   return result_of(scalar(a, b, 1, options.accuracy), options);
 }
 
 Convolution convolve_weighted(const PackedTreeView& a, std::span<const float> weights,
                               const PackedTreeView& b, const ConvolutionOptions& options) {
+  const GradualUnderflow gradual_underflow;
   check_weights(a, weights);
   check_options(options);
 #if defined(__SSE4_1__) && defined(__F16C__)
@@ -1191,16 +1194,19 @@ Convolution convolve_weighted(const PackedTreeView& a, std::span<const float> we
 
 Convolution convolve_weighted_scalar(const PackedTreeView& a, std::span<const float> weights,
                                      const PackedTreeView& b, const ConvolutionOptions& options) {
+  const GradualUnderflow gradual_underflow;
   check_weights(a, weights);
   check_options(options);
   return result_of(scalar(a, b, 1, options.accuracy, weights), options);
 }
 
 GroupConvolution convolve_groups(const PackedTreeView& a, const PackedTreeView& b) {
+  const GradualUnderflow gradual_underflow;
   return dispatch(a, b, std::min(a.shape().groups, 3), 0);
 }
 
 GroupConvolution convolve_groups_scalar(const PackedTreeView& a, const PackedTreeView& b) {
+  const GradualUnderflow gradual_underflow;
   return scalar(a, b, std::min(a.shape().groups, 3), 0);
 }
 

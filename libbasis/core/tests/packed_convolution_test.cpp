@@ -13,7 +13,7 @@
 #include <vector>
 
 #if defined(__SSE2__)
-#include <xmmintrin.h>
+#include <immintrin.h>
 #endif
 
 #include "basis/core/convolution.h"
@@ -466,8 +466,8 @@ TEST(PackedConvolution, DerivedValuesKeepTheirBoundWhenEveryRoundingGoesOneWay) 
 // (16,392: 16,384 and 16,400) rounds to the even one, so that its product with itself takes the
 // whole rounding its bound allows; after it, in the same lane, the small products of a
 // checkerboard (3.75 and 3.875 squared, under half the float step of 2^28) are lost from the
-// sum. The bound must cover the sums' rounding too: without it, this printed a value 3,700
-// below the texels' product per unit area, outside a bound that held only the values' rounding.
+// sum. The bound must cover the sums' rounding too: without it, this printed a value 259.8 from
+// the texels' product, outside a bound of 256.3 that held only the values' rounding.
 TEST(PackedConvolution, FloatSumsThatLoseTheirSmallTermsKeepTheirBound) {
   const int n = 32;
   bool folded = false;
@@ -534,7 +534,7 @@ TEST(PackedConvolution, FloatSumsThatLoseTheirSmallTermsKeepTheirBound) {
 // magnitudes covers.
 struct TinyWeights {
   PackedTree a, b;
-  float w[2];
+  std::vector<float> w;
   long double exact;
   std::string what;
 };
@@ -565,7 +565,10 @@ std::vector<TinyWeights> tiny_weight_cases() {
     for (int y = 0; y < n; ++y)
       for (int x = 0; x < n; ++x)
         exact += (long double)scale * grid_a.at(0, 0, x, y) * grid_b.at(0, 0, x, y);
-    cases.push_back({a, b, {scale, 0}, exact / (n * n), "random, weight " + std::to_string(scale)});
+    const std::string power = "2^" + std::to_string(std::ilogb(scale));
+    cases.push_back({a, b, {scale, 0}, exact / (n * n), "random, weights " + power + " and 0"});
+    // One weight: the plain descent, its result weighted after it.
+    cases.push_back({a, b, {scale}, exact / (n * n), "random, one weight " + power});
   }
   // Constants: a weighted product of half the smallest subnormal (2^-149 x 0.5 in a's units of 1),
   // which rounds to 0, times b's largest half (65,504): 2^-135 of the result lost, where a term
@@ -625,16 +628,24 @@ TEST(PackedConvolution, FlushToZeroInTheCallerKeepsTheBound) {
   for (int k = 0; k < 64; ++k)
     exact += (long double)tiny.texels[std::size_t(k)] * large.texels[std::size_t(k)] / 64;
   constexpr unsigned kModes = _MM_FLUSH_ZERO_MASK | _MM_DENORMALS_ZERO_MASK;
-  const unsigned saved = _mm_getcsr();
+  // The caller's modes for a scope, the test's own again after it (also if a call throws).
+  struct CallerModes {
+    unsigned saved = _mm_getcsr();
+    CallerModes() { _mm_setcsr(saved | kModes); }
+    ~CallerModes() { _mm_setcsr(saved); }
+  };
   // Only the descents run in the caller's modes; the checks, which compare subnormals, after.
-  _mm_setcsr(saved | kModes);
   std::vector<std::vector<Convolution>> results;
-  for (const TinyWeights& k : cases)
-    results.push_back(tiny_weight_results(k));
-  const Convolution floats = convolve(tiny_tree.view(), large_tree.view());
-  const Convolution floats_scalar = convolve_scalar(tiny_tree.view(), large_tree.view());
-  const unsigned after = _mm_getcsr();
-  _mm_setcsr(saved);
+  Convolution floats, floats_scalar;
+  unsigned after = 0;
+  {
+    const CallerModes caller;
+    for (const TinyWeights& k : cases)
+      results.push_back(tiny_weight_results(k));
+    floats = convolve(tiny_tree.view(), large_tree.view());
+    floats_scalar = convolve_scalar(tiny_tree.view(), large_tree.view());
+    after = _mm_getcsr();
+  }
   EXPECT_EQ(after & kModes, kModes);
   for (std::size_t i = 0; i < cases.size(); ++i)
     expect_tiny_weights_within_their_bound(cases[i], results[i]);

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "basis/core/dense.h"
+#include "basis/core/gradual_underflow.h"
 #include "basis/core/hemisphere.h"
 
 namespace basis {
@@ -109,6 +110,7 @@ Rgb reflect_lights(std::span<const DirectionalLight> lights, const Frame& record
 
 Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, std::size_t k,
                   const ShadingOptions& options) {
+  const GradualUnderflow gradual_underflow;  // the bound assumes it (gradual_underflow.h)
   const Vec3 wo = outgoing_direction(options.wo);
   if (!options.normal)
     return shade(
@@ -134,6 +136,7 @@ Convolution shade(const BrdfTableView& table, const CaptureSetView& captures, st
 
 Convolution shade(const BrdfTableView& table, const EntriesAtWo& entries,
                   const CaptureSetView& captures, std::size_t k, const ShadingOptions& options) {
+  const GradualUnderflow gradual_underflow;  // the bound assumes it (gradual_underflow.h)
   if (options.normal)
     throw std::invalid_argument("shading with the entries already found takes untilted lookups");
   const Vec3 wo = outgoing_direction(options.wo);
@@ -179,6 +182,7 @@ Convolution shade_dense(const DenseLookup& table, const Grid& radiance,
 
 Convolution capture_product(const CaptureSetView& a, const CaptureSetView& b, std::size_t k,
                             const ConvolutionOptions& options) {
+  const GradualUnderflow gradual_underflow;  // the bound assumes it (gradual_underflow.h)
   // A set of one capture stands for every point.
   const std::size_t ka = a.trees.size() == 1 ? 0 : k, kb = b.trees.size() == 1 ? 0 : k;
   const PackedTreeView ta = a.trees.tree(ka), tb = b.trees.tree(kb);

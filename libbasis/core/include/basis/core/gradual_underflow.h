@@ -1,15 +1,15 @@
-// The floating-point modes the certified descents assume: gradual underflow, subnormals neither
+// The floating-point modes the certified bounds assume: gradual underflow, subnormals neither
 // flushed to zero nor read as zero. A program may run with flush-to-zero and
-// denormals-are-zero set (renderers often do, and ray tracers ask for them); the descents clear
-// both in this thread while a scope lasts, then give the caller its modes back. Private to the
-// core library.
+// denormals-are-zero set (renderers often do, and ray tracers ask for them); the library's
+// certified computations clear both in this thread while a scope lasts, then give the caller its
+// modes back. On x86 (SSE2); elsewhere the scope changes nothing.
 #pragma once
 
 #if defined(__SSE2__)
 #include <immintrin.h>
 #endif
 
-namespace basis::detail {
+namespace basis {
 
 class GradualUnderflow {
  public:
@@ -22,7 +22,8 @@ class GradualUnderflow {
     if (saved_ != 0) _mm_setcsr((_mm_getcsr() & ~kModes) | saved_);
   }
 #else
-  GradualUnderflow() = default;
+  GradualUnderflow() {}
+  ~GradualUnderflow() {}
 #endif
   GradualUnderflow(const GradualUnderflow&) = delete;
   GradualUnderflow& operator=(const GradualUnderflow&) = delete;
@@ -34,4 +35,4 @@ class GradualUnderflow {
 #endif
 };
 
-}  // namespace basis::detail
+}  // namespace basis
