@@ -89,7 +89,7 @@ template <typename T>
 Convolution float_tree_result(const T* value, const T* bound, const T* magnitude,
                               const FloatSummation& summation, int channels) {
   const double unit = summation.unit;
-  const double gamma = summation.additions * unit / (1 - summation.additions * unit);
+  const double gamma = detail::summation_gamma(summation.additions, unit);
   const double underflow = 8 * summation.additions * summation.floor;
   std::array<double, 3> v{}, b{};
   for (int c = 0; c < 3; ++c) {

@@ -39,13 +39,9 @@ void check_compatible(const PackedShape& a, const PackedShape& b) {
 // texels' mean (projection.h): the factor 1 + 2^-10 covers that on both sides.
 constexpr double kRoundingPerMagnitude = 2 * kHalfRounding * (1 + 0x1p-10), kRoundingFloor = 0x1p-9;
 
-// How far a descent's own sums may lie from exact, as a fraction of the sum of the magnitudes
+// A descent's own sums lie within gamma (detail::summation_gamma) of the sum of the magnitudes
 // its rounding terms take (each at least |a b|: a shared word's share at least its value, which
-// lies below 512 of its steps), for sums through `additions` additions with unit roundoff `unit`
-// (2^-24 in floats, 2^-53 in double): Higham's gamma_n = n unit / (1 - n unit).
-double sums_rounding(double additions, double unit) {
-  return additions * unit / (1 - additions * unit);
-}
+// lies below 512 of its steps).
 
 // The additions a SIMD descent's product term goes through, at most: a pair's two nodes cover
 // one place, so no node of either tree is in two pairs, and a lane takes fewer terms than the
@@ -59,7 +55,7 @@ double simd_additions(const PackedTreeView& a, const PackedTreeView& b) {
 // The certified bound of a descent whose bound terms (the values' rounding included) summed to
 // `terms` and whose magnitudes to `magnitudes` (in the scales' units), each sum possibly below
 // exact by the factor 1 - gamma, and whose value's sum may lie gamma times the magnitudes from
-// exact (sums_rounding); then the rounding floor. The last factor covers this line's own.
+// exact; then the rounding floor. The last factor covers this line's own.
 double descent_bound(double terms, double magnitudes, double gamma, double floor) {
   return ((terms + gamma * magnitudes) / (1 - gamma) + floor) * (1 + 0x1p-40);
 }
@@ -172,7 +168,7 @@ GroupConvolution scalar(const PackedTreeView& a, const PackedTreeView& b, int gr
   // One accumulator a channel takes every stopped quadrant, in double. Its terms' magnitudes,
   // groups' included (sum_g |w_g a_g| |b|, which their double sums round against), are at most
   // the rounding terms of the bound over kRoundingPerMagnitude.
-  const double gamma = sums_rounding(double(sums.stops) + 16, 0x1p-53);
+  const double gamma = detail::summation_gamma(double(sums.stops) + 16, 0x1p-53);
   GroupConvolution result;
   for (int c = 0; c < 3; ++c) {
     const int lane = channels == 1 ? 0 : c;
@@ -1004,25 +1000,26 @@ GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, 
   if constexpr (kFolded) descent.fold(floor_weight);
   const typename Pairs::Sums sums = descent.run(0, 0, 0.25f, 0);
   const DescentConstants<CA, CB>& k = descent.constants();
+  // Results below the normal floats lose up to 2^-150 an operation, in the units they are
+  // computed in: fewer than 2^7 n operations reach a channel's value in the sums' units, as many
+  // its magnitudes and its bound; and a weighted group's products (tiny weights) lose it in a's
+  // units, two operations each, before they are multiplied by b's value (below 2^16 in its
+  // units) and an area (the areas summing to 1): at most 3 x 2^-133 a channel for the values,
+  // and as much for the magnitudes beside them.
+  const double additions = simd_additions(a, b);
+  const double gamma = detail::summation_gamma(additions, 0x1p-24);
+  const double floor = kRoundingFloor * k.total_weight * k.value_scale +
+                       (additions * 0x1p-142 + 3 * 0x1p-132) * k.value_scale +
+                       additions * 0x1p-143 * k.bound_scale;
   GroupConvolution result;
   for (int c = 0; c < 3; ++c) {
     const int lane = C == 1 ? 0 : c;
     double bound = std::numeric_limits<double>::infinity();
     if constexpr (kBound) {
       const double magnitudes = double(sums.magnitude_of(lane)) * k.value_scale;
-      // Results below the normal floats lose up to 2^-150 an operation, in the units they are
-      // computed in: fewer than 2^7 n operations reach a channel's value in the sums' units, as
-      // many its magnitudes and its bound; and a weighted group's products (tiny weights) lose
-      // it in a's units, two operations each, before they are multiplied by b's value (below
-      // 2^16 in its units) and an area (the areas summing to 1): at most 3 x 2^-133 a channel
-      // for the values, and as much for the magnitudes beside them.
-      const double additions = simd_additions(a, b);
-      const double underflow = (additions * 0x1p-142 + 3 * 0x1p-132) * k.value_scale +
-                               additions * 0x1p-143 * k.bound_scale;
       bound = descent_bound(
           double(sums.bound_of(lane)) * k.bound_scale + kRoundingPerMagnitude * magnitudes,
-          magnitudes, sums_rounding(additions, 0x1p-24),
-          kRoundingFloor * k.total_weight * k.value_scale + underflow);
+          magnitudes, gamma, floor);
     }
     const CertifiedFloat group0 =
         certified_float(double(sums.value_of(0, lane)) * k.value_scale, bound);

@@ -14,6 +14,13 @@ struct ScalarSums {
   std::uint64_t stops = 0;   // quadrant pairs summed
 };
 
+// Higham's bound on the rounding of sums through `additions` additions with unit roundoff
+// `unit` (2^-24 in floats, 2^-53 in double), as a fraction of the sum of the terms' magnitudes:
+// gamma_n = n unit / (1 - n unit). The float and packed descents' bounds take it for their sums.
+inline double summation_gamma(double additions, double unit) {
+  return additions * unit / (1 - additions * unit);
+}
+
 // What an accuracy-targeted descent may spend per unit area of a pair, per channel:
 // accuracy / 2 x (|a b| + estimate), estimate the whole integral as the roots' quadrants give
 // it. Summed over the pairs where it stops, at most accuracy / 2 x (the value + estimate).
