@@ -13,6 +13,7 @@ OUT_DIR/figure1.png (equal-time insets), OUT_DIR/figure7.png (time split), OUT_D
 (render times). The scenes are made here: the bundled data/scene.obj, the bunny of Debian's
 glmark2-data on a floor, and spheres with smooth vertex normals. Needs build/bin
 (scripts/setup.sh) and the maps of Debian's blender-data."""
+import argparse
 import json
 import math
 import os
@@ -233,13 +234,26 @@ def figure8(out, cases):
 
 
 def main():
-    quick = "--quick" in sys.argv
-    main_job = "--main-job" in sys.argv
-    redraw = "--redraw" in sys.argv
-    args = [a for a in sys.argv[1:] if a not in ("--quick", "--main-job", "--redraw")]
-    if len(args) != 1:
-        sys.exit(__doc__)
-    out = os.path.abspath(args[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="Writes OUT_DIR/render_study.json, a Markdown table on stdout and the charts\n"
+               "figure1.png (equal-time insets), figure7.png (time split) and figure8.png\n"
+               "(render times) in OUT_DIR. Needs build/bin (scripts/setup.sh) and the maps of\n"
+               "Debian's blender-data; the charts need matplotlib (Debian's python3-matplotlib:\n"
+               "run it with /usr/bin/python3).")
+    modes = parser.add_mutually_exclusive_group()
+    modes.add_argument("--quick", action="store_true",
+                       help="two scenes and one failure case, references of 1024 samples per "
+                            "pixel (else 2048)")
+    modes.add_argument("--main-job", action="store_true",
+                       help="the bundled scene alone (data/scene.json), Figures 1 and 7 only")
+    modes.add_argument("--redraw", action="store_true",
+                       help="the charts and tables again from OUT_DIR/render_study.json")
+    parser.add_argument("out", metavar="OUT_DIR", help="where the study's files go")
+    options = parser.parse_args()
+    quick, main_job, redraw = options.quick, options.main_job, options.redraw
+    out = os.path.abspath(options.out)
     if redraw:
         with open(os.path.join(out, "render_study.json")) as f:
             results = json.load(f)

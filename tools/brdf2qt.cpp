@@ -70,7 +70,7 @@ int main(int argc, char** argv) {
   app.add_option("--threads", threads, "worker threads (default: all cores)")
       ->check(CLI::Range(1, 1024));
   app.add_flag("--json", json, "print the summary as JSON");
-  app.add_flag("-q,--quiet", quiet, "no progress bar or summary");
+  app.add_flag("-q,--quiet", quiet, "no progress bar or summary (--json still prints)");
   app.set_version_flag("--version", basis::kVersion);
 
   return basis::cli::run(app, argc, argv, [&] {
@@ -113,7 +113,7 @@ int main(int argc, char** argv) {
         table.view(), spec.model, spec.text, options.projection,
         {"brdf2qt", basis::kVersion, basis::table_parameters(options), {spec_path}});
     basis::write_qt(output, bytes);
-    if (quiet) return;
+    if (quiet && !json) return;
     const std::size_t nodes = table.trees.view().total_nodes();
     if (json) {
       std::cout << basis::json_text(nlohmann::ordered_json{{"output", output},

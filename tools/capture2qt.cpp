@@ -152,7 +152,7 @@ int main(int argc, char** argv) {
   app.add_flag("--zero-invalid", zero_invalid,
                "read NaN and infinite environment texels as 0 instead of refusing the map");
   app.add_flag("--json", json, "print the summary as JSON");
-  app.add_flag("-q,--quiet", quiet, "no progress bar, warnings or summary");
+  app.add_flag("-q,--quiet", quiet, "no progress bar, warnings or summary (--json still prints)");
   app.set_version_flag("--version", basis::kVersion);
 
   return basis::cli::run(app, argc, argv, [&] {
@@ -182,8 +182,8 @@ int main(int argc, char** argv) {
         throw UsageError("--image compresses an existing capture: no light, scene or points");
       if (!shard_text.empty() || skip_existing)
         throw UsageError("--image compresses one capture: no --shard or --skip-existing");
-      for (const char* flag :
-           {"--res", "--spp", "--seed", "--normal", "--splat-lights", "--dump", "--zero-invalid"})
+      for (const char* flag : {"--res", "--spp", "--seed", "--normal", "--splat-lights", "--dump",
+                               "--zero-invalid", "--env-rotate"})
         if (app.count(flag) > 0)
           throw UsageError(std::string(flag) + " shapes a traced capture; --image takes the " +
                            "image as it is");
@@ -224,6 +224,9 @@ int main(int argc, char** argv) {
       throw UsageError("--env and --env-constant exclude each other: give one light");
     if (env_path.empty() && env_constant.empty())
       throw UsageError("give the light: --env FILE or --env-constant R,G,B");
+    for (const char* flag : {"--env-rotate", "--zero-invalid"})
+      if (!env_constant.empty() && app.count(flag) > 0)
+        throw UsageError(std::string(flag) + " is for --env: a constant light has no map");
     const int point_sources = int(!at.empty()) + int(!points_path.empty()) + int(sample > 0);
     if (point_sources > 1)
       throw UsageError("--at, --points and --sample exclude each other: give one set of points");
@@ -324,24 +327,41 @@ int main(int argc, char** argv) {
       if (skip_existing && !quiet)
         std::fprintf(stderr, "capture2qt: making shard %s: %s\n", shard_text.c_str(), why->c_str());
     }
-    // The output's folder is there before any work (or any --dump image) is done.
+    // The output, named now if it was not, spares every input, the scene's material files
+    // included; its folder is there before any work (or any --dump image) is done.
+    std::vector<basis::cli::NamedPath> inputs = {
+        {"--env", env_path}, {"--scene", scene_path}, {"--points", points_path}};
+    if (mesh)
+      for (const std::string& file : mesh->material_files)
+        inputs.push_back({scene_path, file});
+    basis::cli::check_outputs_spare_inputs({{"-o", output}}, inputs);
     basis::cli::check_output_place(output);
     DumpedImages dumped;
     if (!dump.empty()) {
       if (!std::filesystem::is_directory(dump))
         throw basis::FileError(dump + ": not a directory (--dump writes into an existing one)");
-      const auto dumped_path = [&](std::size_t index) {
+      const auto dumped_name = [](std::size_t index) {
         char name[32];
         std::snprintf(name, sizeof name, "capture_%05zu.exr", index);
-        return (std::filesystem::path(dump) / name).string();
+        return std::string(name);
       };
-      // Images are new files only: one already there (an earlier run's, or an input) is kept.
-      for (std::size_t k = 0; k < points.size(); ++k)
-        if (const std::string path = dumped_path(options.first_index + k);
-            std::filesystem::exists(path))
+      const auto dumped_path = [&](std::size_t index) {
+        return (std::filesystem::path(dump) / dumped_name(index)).string();
+      };
+      // Images are new files only: one already there (an earlier run's, or an input) is kept,
+      // and none is the output.
+      std::error_code error;
+      const std::filesystem::path output_at = std::filesystem::weakly_canonical(output, error);
+      const std::filesystem::path dump_at = std::filesystem::weakly_canonical(dump, error);
+      for (std::size_t k = 0; k < points.size(); ++k) {
+        const std::string path = dumped_path(options.first_index + k);
+        if (std::filesystem::exists(path))
           throw basis::FileError(path +
                                  ": already there; --dump writes only new images (empty "
                                  "the folder or choose another)");
+        if (output_at == dump_at / dumped_name(options.first_index + k))
+          throw UsageError("-o " + output + " is an image --dump writes: name another file");
+      }
       options.on_grid = [&, dumped_path](std::size_t index, const basis::Grid& grid,
                                          std::span<const basis::DirectionalLight> lights) {
         basis::Grid texels = grid;
@@ -370,7 +390,7 @@ int main(int argc, char** argv) {
     dumped.keep();
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    if (quiet) return;
+    if (quiet && !json) return;
     const std::size_t nodes = set.trees.view().total_nodes();
     if (json) {
       std::cout << basis::json_text(

@@ -2,6 +2,8 @@
 
 #include <unistd.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -51,6 +53,21 @@ const std::atomic<bool>& interrupt_flag() {
   return interrupted;
 }
 
+namespace {
+
+// The first option of `app` or of its option groups given an empty value, or none.
+const CLI::Option* option_given_empty(const CLI::App& app) {
+  for (const CLI::Option* option : app.get_options())
+    if (option->get_type_size() != 0 && option->count() > 0)
+      for (const std::string& value : option->results())
+        if (value.empty()) return option;
+  for (const CLI::App* group : app.get_subcommands([](const CLI::App*) { return true; }))
+    if (const CLI::Option* empty = option_given_empty(*group)) return empty;
+  return nullptr;
+}
+
+}  // namespace
+
 int run(CLI::App& app, int argc, char** argv, const std::function<void()>& body) {
   const std::string tool = app.get_name();
   try {
@@ -63,6 +80,12 @@ int run(CLI::App& app, int argc, char** argv, const std::function<void()>& body)
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     std::cerr << tool << ": " << one_line(e.what()) << " (see --help)\n";
+    return kExitBadUsage;
+  }
+  // An empty value (-o "", an unset variable in a script) names no file, number or word; an
+  // empty output name would otherwise fall back to the default one and write over it.
+  if (const CLI::Option* empty = option_given_empty(app)) {
+    std::cerr << tool << ": " << empty->get_name() << " is given an empty value (see --help)\n";
     return kExitBadUsage;
   }
   std::signal(SIGINT, on_signal);
@@ -263,6 +286,14 @@ void check_output_place(const std::string& path) {
     throw FileError(path + ": is a folder; name the file to write");
   const std::filesystem::path folder = std::filesystem::absolute(path, error).parent_path();
   if (!std::filesystem::is_directory(folder, error)) throw FileError(path + ": no such folder");
+}
+
+void check_png_name(const std::string& path, const std::string& option) {
+  std::string extension = std::filesystem::path(path).extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return char(std::tolower(c)); });
+  if (!path.empty() && extension != ".png")
+    throw UsageError(option + " names a PNG file (.png), got " + path);
 }
 
 Vec3 parse_direction(const std::string& text, const std::string& option) {

@@ -90,6 +90,9 @@ void check_outputs_spare_inputs(const std::vector<NamedPath>& outputs,
 // Throws FileError naming `path` when an output cannot go there, checked before any work is
 // done: its folder is missing, or it is a folder itself. Empty paths are skipped.
 void check_output_place(const std::string& path);
+// Throws UsageError unless `path` (given to `option`) is empty or names a PNG file (.png): the
+// image is written after the work, and its format is chosen by that name.
+void check_png_name(const std::string& path, const std::string& option);
 
 // Parses "X,Y,Z" into three finite numbers; throws UsageError naming the option.
 Vec3 parse_triple(const std::string& text, const std::string& option);

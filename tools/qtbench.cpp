@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 
 #include "basis/core/file_error.h"
 #include "basis/core/version.h"
@@ -88,8 +89,14 @@ int main(int argc, char** argv) {
 
   return basis::cli::run(app, argc, argv, [&] {
     const auto start = std::chrono::steady_clock::now();
+    if (lookups_only)
+      for (const char* flag : {"--map", "--measured", "--scene", "--scene-points"})
+        if (app.count(flag) > 0)
+          throw basis::cli::UsageError(std::string(flag) +
+                                       " shapes the full study's panels: not with --lookups-only");
     if (map.empty()) map = "/usr/share/blender/datafiles/studiolights/world/sunrise.exr";
-    const basis::Environment env(basis::read_image(map), 0, map);
+    std::optional<basis::Environment> env;
+    if (!lookups_only) env.emplace(basis::read_image(map), 0, map);
     std::error_code error;
     std::filesystem::create_directories(out_dir, error);
     if (error || !std::filesystem::is_directory(out_dir))
@@ -105,7 +112,7 @@ int main(int argc, char** argv) {
     if (!lookups_only) {
       basis::cli::ProgressBar preparing("qtbench: cases", false);
       const std::vector<basis::ComparisonCase> cases = arena->execute([&] {
-        return basis::speed_study_cases(env, basis::speed_study_panels(options), options,
+        return basis::speed_study_cases(*env, basis::speed_study_panels(options), options,
                                         preparing.control());
       });
       preparing.finish();
@@ -115,7 +122,7 @@ int main(int argc, char** argv) {
       timing.finish();
       basis::write_comparison_csv((out / "results.csv").string(), results);
       rows = results.size();
-      const auto rotation = arena->execute([&] { return basis::run_rotation_study(env, quick); });
+      const auto rotation = arena->execute([&] { return basis::run_rotation_study(*env, quick); });
       basis::write_rotation_csv((out / "rotation.csv").string(),
                                 std::filesystem::path(map).stem().string(), rotation);
     }

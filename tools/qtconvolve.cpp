@@ -2,6 +2,7 @@
 // the reflected radiance at every capture; two capture sets give their products point by point.
 #include <cstdarg>
 #include <cstdio>
+#include <filesystem>
 #include <functional>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -14,6 +15,7 @@
 #include "basis/io/image_file.h"
 #include "basis/io/json_text.h"
 #include "basis/io/picture.h"
+#include "basis/lighting/mesh.h"
 #include "basis/study/lookup_reference.h"
 #include "basis/study/timing.h"
 #include "cli.h"
@@ -309,6 +311,7 @@ int main(int argc, char** argv) {
                                            {{"a", a_path}, {"b", b_path}});
     basis::cli::check_output_place(output);
     basis::cli::check_output_place(png);
+    basis::cli::check_png_name(png, "--png");
     if (no_bound && accuracy > 0)
       throw UsageError("--accuracy stops on the certified bound: not with --no-bound");
     basis::CaptureSource a = basis::CaptureSource::open(a_path);
@@ -319,8 +322,13 @@ int main(int argc, char** argv) {
       std::vector<basis::cli::NamedPath> recorded;
       for (basis::CaptureSource* source : {&a, &b})
         if (source->size() > 0)
-          for (const std::string& file : source->shard(0).provenance().sources)
+          for (const std::string& file : source->shard(0).provenance().sources) {
             recorded.push_back({"--reference", file});
+            // A scene's material files (mtllib), which tracing reads with it.
+            if (std::filesystem::path(file).extension() == ".obj" && std::filesystem::exists(file))
+              for (const std::string& material : basis::read_obj(file).material_files)
+                recorded.push_back({"--reference", material});
+          }
       basis::cli::check_outputs_spare_inputs({{"-o", output}, {"--png", png}}, recorded);
     }
     basis::ShadingOptions shading;

@@ -96,6 +96,7 @@ int main(int argc, char** argv) {
           "--entry (a table's entry) and --index (a capture or tree) exclude each "
           "other");
     basis::cli::check_output_place(png);
+    basis::cli::check_png_name(png, "--png");
     if (basis::is_manifest(input)) {
       if (!entry.empty())
         throw UsageError(

@@ -71,8 +71,9 @@ int main(int argc, char** argv) {
   app.add_option("--spp", spp, "mc: samples per pixel (default 16)")->check(CLI::Range(1, 1 << 20));
   app.add_option("--time-budget", time_budget,
                  "mc: render as many whole samples per pixel as fit in this many seconds "
-                 "(loading excluded)")
-      ->check(basis::cli::positive_number());
+                 "(loading excluded; at most a week, 604800)")
+      ->check(basis::cli::positive_number())
+      ->check(CLI::Range(0.0, 604800.0));
   app.add_option("-o,--output", output, "output EXR (default SCENE_METHOD.exr)");
   app.add_option("--compare", compare,
                  "reference EXR of the same size: report relative MSE and RMSE over the pixels "
@@ -121,7 +122,7 @@ int main(int argc, char** argv) {
   app.add_option("--threads", threads, "worker threads (default: all cores)")
       ->check(CLI::Range(1, 1024));
   app.add_flag("--json", json, "print the summary as JSON");
-  app.add_flag("-q,--quiet", quiet, "no progress bar, notes or summary");
+  app.add_flag("-q,--quiet", quiet, "no progress bar, notes or summary (--json still prints)");
   app.set_version_flag("--version", basis::kVersion);
 
   return basis::cli::run(app, argc, argv, [&] {
@@ -190,6 +191,11 @@ int main(int argc, char** argv) {
       load.control = progress.control();
       scene = arena->execute([&] { return basis::load_render_scene(file, load); });
     }
+    // The meshes' material files (mtllib) are inputs too.
+    std::vector<basis::cli::NamedPath> material_files;
+    for (const std::string& path : scene.mesh.material_files)
+      material_files.push_back({scene_path + "'s meshes", path});
+    basis::cli::check_outputs_spare_inputs({{"-o", output}, {"its PNG", png}}, material_files);
     const double load_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
 
@@ -217,7 +223,7 @@ int main(int argc, char** argv) {
         mean_luminance(compare.empty() ? result.image : reference, result.covered);
     const basis::Image picture = tone_mapped(result.image, average);
     basis::write_images({{output, &result.image}, {png, &picture}});
-    if (quiet) return;
+    if (quiet && !json) return;
     const basis::RenderTimings& t = result.timings;
     if (json) {
       nlohmann::ordered_json j = {{"scene", scene_path},        {"method", method},

@@ -16,7 +16,17 @@ BrdfSpec table_brdf(const QtFile& table) {
   const std::string folder = p.sources.empty()
                                  ? std::string()
                                  : std::filesystem::path(p.sources[0]).parent_path().string();
-  return parse_brdf_spec(spec, table.name() + " (stored spec)", folder);
+  BrdfSpec parsed = parse_brdf_spec(spec, table.name() + " (stored spec)", folder);
+  // The spec answers for the table's directional lights: one that is not the table's BRDF
+  // (a damaged file) would light them with another.
+  const int channels = table.trees().shape().channels;
+  if (parsed.model != table.brdf_model() || channel_count(parsed.brdf) != channels)
+    throw FileError(table.name() + ": its stored spec (" + parsed.model + ", " +
+                    std::to_string(channel_count(parsed.brdf)) +
+                    " channels) is not its table's BRDF (" + table.brdf_model() + ", " +
+                    std::to_string(channels) +
+                    "); the file is damaged: make it again with brdf2qt");
+  return parsed;
 }
 
 namespace {
@@ -111,6 +121,10 @@ CaptureRecipe capture_recipe(const QtFile& captures) {
   r.projection = captures.projection();
   try {
     r.options.resolution = j.at("res").get<int>();
+    if (r.options.resolution != captures.trees().shape().resolution)
+      throw FileError(captures.name() + ": its provenance records captures of " +
+                      std::to_string(r.options.resolution) + "², its trees are " +
+                      std::to_string(captures.trees().shape().resolution) + "²");
     const long long spp = j.at("spp").get<long long>();
     if (spp < 1 || spp > 4096)
       throw FileError(captures.name() + ": its provenance records " + std::to_string(spp) +

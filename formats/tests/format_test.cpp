@@ -929,7 +929,7 @@ TEST(QtFormat, TableEntriesOfExactTexelsAreRefused) {
 TEST(QtRecipe, CaptureParametersReadBackAsTheSameRecipe) {
   CaptureRecipe constant;
   constant.constant = {0.1, 2.5e-7, 12345.678901234};
-  constant.options = {.resolution = 64,
+  constant.options = {.resolution = 32,
                       .strata = 3,
                       .seed = 987654321987654321ull,
                       .ray_offset = 3.25e-4,
@@ -940,6 +940,7 @@ TEST(QtRecipe, CaptureParametersReadBackAsTheSameRecipe) {
   map.rotate_z_degrees = -37.5;
   map.scene = "scene.obj";
   map.options.compact_lights = CaptureOptions::CompactLights::apart;
+  map.options.resolution = 32;  // the sample trees'
   for (const CaptureRecipe& r : {constant, map}) {
     const auto bytes = encode_capture_set(sample_captures(2).view(), r.projection,
                                           {"capture2qt", "1", capture_parameters(r), {}});
@@ -966,6 +967,7 @@ TEST(QtRecipe, CaptureParametersReadBackAsTheSameRecipe) {
 TEST(QtRecipe, SampleCountsNoCaptureTakesAreRefused) {
   CaptureRecipe r;
   r.environment = "sky.exr";
+  r.options.resolution = 32;  // the sample trees'
   for (const long long spp : {2147483647LL, 4294967297LL, 4097LL, 0LL, -4LL}) {
     nlohmann::json parameters = nlohmann::json::parse(capture_parameters(r));
     parameters["spp"] = spp;
@@ -977,6 +979,32 @@ TEST(QtRecipe, SampleCountsNoCaptureTakesAreRefused) {
     } catch (const FileError& e) {
       EXPECT_NE(std::string(e.what()).find("odd.qt: its provenance records " + std::to_string(spp) +
                                            " samples per texel"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+}
+
+// A recorded resolution other than the trees' is refused by name (a reference traced at it
+// failed later with a message about resolutions that did not name the file's provenance).
+TEST(QtRecipe, ResolutionsOtherThanTheTreesAreRefused) {
+  CaptureRecipe r;
+  r.environment = "sky.exr";
+  for (const int resolution : {16, 64, 32}) {
+    r.options.resolution = resolution;
+    const auto bytes = encode_capture_set(sample_captures(1).view(), r.projection,
+                                          {"capture2qt", "1", capture_parameters(r), {}});
+    const QtFile file = QtFile::from_bytes(bytes, "odd.qt");
+    if (resolution == 32) {
+      EXPECT_EQ(capture_recipe(file).options.resolution, 32);
+      continue;
+    }
+    try {
+      capture_recipe(file);
+      ADD_FAILURE() << resolution << " was taken for the trees' 32";
+    } catch (const FileError& e) {
+      EXPECT_NE(std::string(e.what()).find("odd.qt: its provenance records captures of " +
+                                           std::to_string(resolution) + "², its trees are 32²"),
                 std::string::npos)
           << e.what();
     }

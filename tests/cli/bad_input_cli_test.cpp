@@ -460,6 +460,106 @@ TEST(BadInputMatrix, OutputsThatWouldDestroyAnInputAreRefused) {
   check(dir, "capture2qt",
         {{"--env-constant", "1,1,1", "--at", "0,0,0", "-o", "folder"}, 1, "folder: is a folder"});
   check(dir, "brdf2qt", {{"ok.json", "-o", "no/such/folder/x.qt"}, 1, "no such folder"});
+  // The material files an OBJ names (mtllib) are inputs too, for a capture and for the
+  // reference that traces it again.
+  write_text(dir.file("lamp.mtl"), "newmtl glow\nKe 5 5 5\n");
+  write_text(dir.file("lamp.obj"),
+             "mtllib lamp.mtl\nv 0 0 1\nv 1 0 1\nv 0 1 1\nusemtl glow\nf 1 2 3\n");
+  const std::string materials = testing::slurp(dir.file("lamp.mtl"));
+  check(dir, "capture2qt",
+        {{"--env-constant", "1,1,1", "--scene", "lamp.obj", "--sample", "2", "--res", "8", "-o",
+          "lamp.mtl"},
+         2,
+         "lamp.mtl is the file lamp.obj reads"});
+  ASSERT_EQ(run_tool("capture2qt",
+                     {"--env-constant", "1,1,1", "--scene", "lamp.obj", "--sample", "2", "--res",
+                      "8", "-o", "lamp.qt", "-q"},
+                     dir.path())
+                .status,
+            0);
+  check(dir, "qtconvolve",
+        {{"ok.qt", "lamp.qt", "--reference", "-o", "lamp.mtl"},
+         2,
+         "lamp.mtl is the file --reference reads"});
+  EXPECT_EQ(testing::slurp(dir.file("lamp.mtl")), materials);
+}
+
+// An empty value names nothing: bad usage, where an empty output name used to fall back to the
+// default one and write over it.
+TEST(BadInputMatrix, EmptyValuesAreBadUsage) {
+  TempDir dir;
+  write_inputs(dir);
+  const std::string captures = testing::slurp(dir.file("cap.qt"));
+  ASSERT_EQ(run_tool("capture2qt", {"--env-constant", "1,1,1", "--at", "0,0,0", "--res", "8", "-q"},
+                     dir.path())
+                .status,
+            0);
+  const std::string default_output = testing::slurp(dir.file("captures.qt"));
+  check(dir, "capture2qt",
+        {{"--env-constant", "2,2,2", "--at", "0,0,0", "--res", "8", "-o", ""}, 2, "--output"});
+  EXPECT_EQ(testing::slurp(dir.file("captures.qt")), default_output);
+  check(dir, "brdf2qt", {{"ok.json", "-o", ""}, 2, "--output is given an empty value"});
+  check(dir, "capture2qt", {{"--env", "", "--at", "0,0,0"}, 2, "--env is given an empty value"});
+  check(dir, "qtinfo", {{"ok.qt", "--png", ""}, 2, "--png is given an empty value"});
+  check(dir, "qtconvolve", {{"ok.qt", ""}, 2, "is given an empty value"});
+  check(dir, "qtrender", {{"s.json", "-o", ""}, 2, "--output is given an empty value"});
+  EXPECT_EQ(testing::slurp(dir.file("cap.qt")), captures);
+}
+
+// A table whose stored spec is not its BRDF (a damaged file: its trees a grey Phong's, its spec
+// an RGB Lambert's of the same length) is not taken for its BRDF: qtconvolve says so and lights
+// the directional lights with the table's texels, as for a measured BRDF whose data moved (it
+// lit them with the other BRDF under an unchanged bound); qtrender refuses it as a material.
+TEST(BadInputMatrix, ATableWhoseSpecIsNotItsBrdfIsNotTakenForIt) {
+  TempDir dir;
+  write_text(dir.file("ph.json"), R"({"model": "phong", "kd": 0.5, "ks": 0.4, "exponent": 10})");
+  ASSERT_EQ(
+      run_tool("brdf2qt", {"ph.json", "--wo-res", "3", "--wi-res", "8", "-q"}, dir.path()).status,
+      0);
+  Image sky(256, 128, 3);  // a dim sky with one bright texel: a directional light kept apart
+  for (float& p : sky.pixels)
+    p = 0.1f;
+  for (int c = 0; c < 3; ++c)
+    sky.at(40, 30, c) = 1e5f;
+  write_image(dir.file("sun.exr"), sky);
+  ASSERT_EQ(run_tool("capture2qt",
+                     {"--env", "sun.exr", "--at", "0,0,0", "--res", "8", "-o", "sun.qt", "-q"},
+                     dir.path())
+                .status,
+            0);
+  ASSERT_GT(QtFile::load(dir.file("sun.qt")).captures().lights.size(), 0u);
+  std::string table = testing::slurp(dir.file("ph.qt"));
+  const std::string spec = testing::slurp(dir.file("ph.json"));
+  const std::size_t at = table.find(spec);
+  ASSERT_NE(at, std::string::npos);
+  std::string other = R"({"model": "lambert", "albedo": [1, 0, 0]})";
+  ASSERT_LE(other.size(), spec.size());
+  other.insert(other.size() - 1, spec.size() - other.size(), ' ');
+  table.replace(at, spec.size(), other);
+  std::ofstream(dir.file("damaged.qt"), std::ios::binary) << table;
+  const auto damaged = run_tool("qtconvolve", {"damaged.qt", "sun.qt", "--json"}, dir.path());
+  ASSERT_EQ(damaged.status, 0) << damaged.err;
+  EXPECT_NE(damaged.err.find("damaged.qt: its stored spec (lambert, 3 channels) is not its "
+                             "table's BRDF (phong, 1)"),
+            std::string::npos)
+      << damaged.err;
+  EXPECT_EQ(testing::line_count(damaged.err), 1) << damaged.err;
+  const auto texels =
+      run_tool("qtconvolve", {"ph.qt", "sun.qt", "--json", "--lights", "table"}, dir.path());
+  ASSERT_EQ(texels.status, 0) << texels.err;
+  EXPECT_EQ(nlohmann::json::parse(damaged.out)["results"],
+            nlohmann::json::parse(texels.out)["results"]);
+  write_text(dir.file("s.json"),
+             R"({"camera": {"eye": [0, -9, 4], "look_at": [0, 0, 0.7], "up": [0, 0, 1],
+                 "fov": 40, "width": 8, "height": 6},
+                 "environment": {"constant": [1, 1, 1]},
+                 "meshes": [{"obj": ")" +
+                 std::string(BASIS_SOURCE_DIR) +
+                 R"(/data/scene.obj", "material": "damaged.qt"}]})");
+  check(dir, "qtrender",
+        {{"s.json", "--method", "mc", "--spp", "1", "-o", "r.exr"},
+         1,
+         "damaged.qt: its stored spec (lambert, 3 channels) is not its table's BRDF"});
 }
 
 // A table block's wi_res that is not a power of two is the spec's error (exit 1, naming the file
@@ -519,12 +619,35 @@ TEST(BadInputMatrix, IgnoredOrContradictoryFlagsAreBadUsage) {
   check(dir, "qtrender", {{"s.json", "--seed", "-5"}, 2, "--seed"});
   check(dir, "qtconvolve", {{"ok.qt", "cap.qt", "--tilt", "none"}, 2, "--tilt"});
   check(dir, "qtconvolve", {{"cap.qt", "cap.qt", "--lights", "table"}, 2, "--lights"});
+  check(dir, "capture2qt", {with(at, {"--env-rotate", "10"}), 2, "--env-rotate is for --env"});
+  check(dir, "capture2qt", {with(at, {"--zero-invalid"}), 2, "--zero-invalid is for --env"});
+  check(dir, "qtrender",
+        {{"s.json", "--method", "mc", "--time-budget", "1e300"}, 2, "--time-budget"});
+  check(dir, "qtbench", {{"--out", "b", "--lookups-only", "--scene", "missing.obj"}, 2, "--scene"});
+  // A PNG's name is checked before the work, not after it.
+  check(dir, "qtinfo", {{"ok.qt", "--png", "noext"}, 2, "--png names a PNG file"});
+  check(dir, "qtconvolve", {{"ok.qt", "cap.qt", "--png", "p.exr"}, 2, "--png names a PNG file"});
+  // A spec is read to its end: a NUL byte does not end it.
+  write_text(dir.file("nul.json"), std::string(R"({"model": "lambert", "albedo": 0.5})") +
+                                       std::string(1, '\0') + "garbage{{{");
+  check(dir, "brdf2qt", {{"nul.json"}, 1, "nul.json:1: invalid JSON: a NUL byte"});
   // --image takes the image as it is, and prints JSON when asked.
   std::filesystem::create_directory(dir.file("dump"));
   ASSERT_EQ(
       run_tool("capture2qt", with(at, {"--res", "8", "--dump", "dump", "-q"}), dir.path()).status,
       0);
   std::filesystem::remove(dir.file("x.qt"));
+  // No output is an image --dump writes.
+  std::filesystem::create_directory(dir.file("dump2"));
+  check(dir, "capture2qt",
+        {{"--env-constant", "1,1,1", "--at", "0,0,0", "--res", "8", "--dump", "dump2", "-o",
+          "dump2/capture_00000.exr"},
+         2,
+         "is an image --dump writes"});
+  check(dir, "capture2qt",
+        {{"--image", "dump/capture_00000.exr", "--env-rotate", "5", "-o", "i.qt"},
+         2,
+         "--env-rotate"});
   check(dir, "capture2qt",
         {{"--image", "dump/capture_00000.exr", "--res", "32", "-o", "i.qt"}, 2, "--res"});
   const auto image = run_tool(

@@ -1,6 +1,10 @@
 // brdf2qt end to end: specs in, tables out, every failure one line and a clean exit status.
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <filesystem>
 #include <fstream>
 
 #include "basis/format/qt_file.h"
@@ -50,6 +54,17 @@ TEST(Brdf2qtCli, TabulatesASpecWithDefaultsAndOverrides) {
                               dir.path());
   ASSERT_EQ(again.status, 0);
   EXPECT_EQ(testing::slurp(dir.file("other.qt")), testing::slurp(dir.file("again.qt")));
+  // --json says what was written, quiet or not (-q leaves out progress and the summary; the
+  // warning of a grid too coarse for the lobe stays).
+  const auto quiet =
+      run_tool("brdf2qt",
+               {"glossy.json", "-o", "quiet.qt", "--wo-res", "3", "--wi-res", "8", "--json", "-q"},
+               dir.path());
+  ASSERT_EQ(quiet.status, 0) << quiet.err;
+  const auto j = nlohmann::json::parse(quiet.out);
+  EXPECT_EQ(j["output"], "quiet.qt");
+  EXPECT_EQ(j["entries"].get<std::size_t>(), QtFile::load(dir.file("quiet.qt")).trees().size());
+  EXPECT_EQ(j["bytes"].get<std::uintmax_t>(), std::filesystem::file_size(dir.file("quiet.qt")));
 }
 
 // Resolutions too coarse for the lobe are written as asked, with one warning line each naming

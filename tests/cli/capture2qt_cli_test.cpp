@@ -2,6 +2,8 @@
 // one line, unrepresentable environment texels counted, interrupts leave nothing.
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
@@ -42,6 +44,16 @@ TEST(Capture2qtCli, CapturesAPointUnderAConstantLight) {
   EXPECT_EQ(f.captures().normals[0], Vec3(0, 0, 1));
   EXPECT_EQ(f.trees().tree(0).node_count(), 1);  // constant: a single node
   EXPECT_NEAR(integrate(f.trees().tree(0), 0, 2), 3, 1e-6);
+  // --json says what was written, quiet or not (-q leaves out progress, warnings and summary).
+  const auto quiet = run_tool(
+      "capture2qt",
+      {"--env-constant", "1,2,3", "--at", "0,0,0", "--res", "16", "-o", "two.qt", "--json", "-q"},
+      dir.path());
+  ASSERT_EQ(quiet.status, 0) << quiet.err;
+  EXPECT_EQ(quiet.err, "");
+  const auto j = nlohmann::json::parse(quiet.out);
+  EXPECT_EQ(j["output"], "two.qt");
+  EXPECT_EQ(j["captures"], 1);
 }
 
 TEST(Capture2qtCli, SamplesAnObjSceneDeterministicallyAndDumpsTexels) {
@@ -161,6 +173,10 @@ TEST(Capture2qtCli, BadScenesAndImagesAreOneLineExitOne) {
   std::ofstream(dir.file("nan.obj")) << "v 0 0 0\n  v 1 0 nan\nv 0 1 0\nf 1 2 3\n";  // indented
   std::ofstream(dir.file("range.obj")) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n";
   std::ofstream(dir.file("empty.obj")) << "# nothing\n";
+  // An index past 32 bits (which the OBJ reader would wrap round to vertex 3) and one that is
+  // not a number.
+  std::ofstream(dir.file("wrap.obj")) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4294967299\n";
+  std::ofstream(dir.file("word.obj")) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1/x 2 3\n";
   std::ofstream(dir.file("bad.csv")) << "0,0,0,0,0,1\n1,2,three,0,0,1\n";
   Image wide(32, 16, 3);
   write_image(dir.file("wide.exr"), wide);
@@ -172,7 +188,9 @@ TEST(Capture2qtCli, BadScenesAndImagesAreOneLineExitOne) {
       {"--env-constant", "1,1,1", "--points", "bad.csv"},
       {"--env", "missing.hdr", "--at", "0,0,0"},
       {"--env", "bad.csv", "--at", "0,0,0"},
-      {"--image", "wide.exr"}};
+      {"--image", "wide.exr"},
+      {"--env-constant", "1,1,1", "--scene", "wrap.obj", "--sample", "3"},
+      {"--env-constant", "1,1,1", "--scene", "word.obj", "--sample", "3"}};
   for (const auto& args : cases) {
     const auto r = run_tool("capture2qt", args, dir.path());
     EXPECT_EQ(r.status, 1) << args[3] << ": " << r.err;
@@ -183,6 +201,12 @@ TEST(Capture2qtCli, BadScenesAndImagesAreOneLineExitOne) {
   EXPECT_NE(run_tool("capture2qt", cases[1], dir.path()).err.find("uses vertex 9 of 3"),
             std::string::npos);
   EXPECT_NE(run_tool("capture2qt", cases[4], dir.path()).err.find("bad.csv:2:"), std::string::npos);
+  EXPECT_NE(run_tool("capture2qt", cases[8], dir.path())
+                .err.find("wrap.obj:4: face index '4294967299' is not a vertex number"),
+            std::string::npos);
+  EXPECT_NE(run_tool("capture2qt", cases[9], dir.path())
+                .err.find("word.obj:4: face index 'x' is not a vertex number"),
+            std::string::npos);
   // A degenerate triangle is dropped with a warning.
   std::ofstream(dir.file("flat.obj")) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\n";
   const auto flat = run_tool("capture2qt",
@@ -202,8 +226,9 @@ TEST(Capture2qtCli, BadScenesAndImagesAreOneLineExitOne) {
   EXPECT_NE(lamp.err.find("capture2qt: warning: lamp.obj: Material file [ gone.mtl ] not found"),
             std::string::npos)
       << lamp.err;
-  std::vector<std::string> expected = {"bad.csv", "empty.obj", "flat.obj",  "flat.qt", "lamp.obj",
-                                       "lamp.qt", "nan.obj",   "range.obj", "wide.exr"};
+  std::vector<std::string> expected = {"bad.csv",  "empty.obj", "flat.obj", "flat.qt",
+                                       "lamp.obj", "lamp.qt",   "nan.obj",  "range.obj",
+                                       "wide.exr", "word.obj",  "wrap.obj"};
   EXPECT_EQ(dir.entries(), expected);
 }
 

@@ -62,7 +62,7 @@ TEST(QtrenderCli, RendersAnExrAndAPngAndReportsTimesAsJson) {
   // records' own error, and the Monte Carlo image's noise.
   const auto cache = run_tool(
       "qtrender", {dir.file("s.json"), "-o", dir.file("cache.exr"), "--compare", dir.file("mc.exr"),
-                   "--json", "--max-spacing", "0.5", "--min-spacing", "0.5"});
+                   "--json", "-q", "--max-spacing", "0.5", "--min-spacing", "0.5"});
   ASSERT_EQ(cache.status, 0) << cache.err;
   const auto c = nlohmann::json::parse(cache.out);
   for (const char* key : {"total_s", "primary_s", "record_tracing_s", "projection_s",

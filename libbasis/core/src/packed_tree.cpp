@@ -24,8 +24,11 @@ float half_value_scale(double largest) {
 }
 
 std::uint8_t bound_code_at_least(double bound, float bound_scale) {
+  // Both products reach it: the float one (PackedTreeView::bound) and the exact one (the packed
+  // descents scale their sums by bound_scale in double), which rounding may leave below it.
   auto reaches = [&](int code) {
-    return double(bound_code_value(std::uint8_t(code)) * bound_scale) >= bound;
+    const float value = bound_code_value(std::uint8_t(code));
+    return double(value * bound_scale) >= bound && double(value) * double(bound_scale) >= bound;
   };
   // Estimated from the bound's float bits, then settled against the decoded values.
   const auto bits = std::bit_cast<std::uint32_t>(float(bound / bound_scale));

@@ -44,7 +44,10 @@ bool derive_pass(PackedTree& tree, std::vector<double>& scratch) {
   auto half_step = [&](std::uint32_t word) {
     return 0.5 * double(shared_exponent_step(word)) * value_scale;
   };
-  const double largest_codable = code_value(255);
+  // The largest bound a code reaches both as the float product and as the exact one (the
+  // packed descents'), as bound_code_at_least chooses codes.
+  const double largest_codable =
+      std::min(code_value(255), double(bound_code_value(255)) * double(tree.scales.bound_scale));
   const Means means = means_in(scratch, texel_start);
   double largest_offset = 1;  // in half steps of the derived word
   bool fits = true;

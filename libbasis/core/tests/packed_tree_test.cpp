@@ -120,6 +120,42 @@ TEST(SharedExponent, TheSmallestExponentThatFitsAndTheNearestMantissas) {
     EXPECT_THROW(encode_shared_exponent({0.5f, bad, 0.5f}), std::invalid_argument) << bad;
 }
 
+// A bound's code is the smallest whose value times the scale reaches the bound both as the float
+// product (what PackedTreeView::bound reads) and as the exact one (what the packed descents
+// scale their sums by, in double): against a search over all 256 codes, for scales from the
+// subnormal floats (where the float product rounds by up to 2^-150 either way) to 2^120, and
+// bounds at, just above and just below either product of every code.
+TEST(BoundCodes, ReachTheirBoundAsTheFloatAndTheExactProduct) {
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> mantissa(1.0, 2.0);
+  std::vector<float> scales = {1.0f, 1.0f + 0x1p-23f, 0x1.fffffep0f, 0x1p-149f, 0x1.8p-140f};
+  for (int e = -149; e <= 120; e += 3)
+    for (int i = 0; i < 3; ++i)
+      scales.push_back(float(std::ldexp(mantissa(rng), e)));
+  int float_only = 0;
+  for (const float scale : scales) {
+    auto exact = [&](int c) { return double(bound_code_value(std::uint8_t(c))) * double(scale); };
+    auto rounded = [&](int c) { return double(bound_code_value(std::uint8_t(c)) * scale); };
+    for (int code = 0; code < 256; ++code)
+      for (const double product : {exact(code), rounded(code)})
+        for (const double bound :
+             {product, std::nextafter(product, 0.0), std::nextafter(product, INFINITY)}) {
+          if (!(bound > 0)) continue;
+          int expected = 255;
+          for (int c = 0; c < 256; ++c)
+            if (exact(c) >= bound && rounded(c) >= bound) {
+              expected = c;
+              break;
+            }
+          float_only += rounded(code) >= bound && exact(code) < bound;
+          ASSERT_EQ(int(bound_code_at_least(bound, scale)), expected)
+              << "bound " << bound << " scale " << scale;
+        }
+  }
+  // The cases this guards: the float product reaches where the exact one does not.
+  EXPECT_GT(float_only, 0);
+}
+
 // Calls visit(node, depth) for every node of a packed tree, walking its links from the root.
 template <typename Visit>
 void for_each_node_depth(const PackedTreeView& p, Visit&& visit) {

@@ -40,14 +40,20 @@ void write_all(int fd, std::span<const std::byte> data, const std::string& path)
   }
 }
 
+// The start of a hidden temporary's name beside `target`, before a suffix of up to
+// `suffix_bytes`: "." and the target's name when the whole leaves room (a file name holds at
+// most 255 bytes on Linux), else ".basis".
+std::string hidden_prefix(const std::filesystem::path& target, std::size_t suffix_bytes) {
+  const std::string name = target.filename().string();
+  return "." + (1 + name.size() + suffix_bytes <= 255 ? name : std::string("basis"));
+}
+
 // Creates a temporary file next to `path`; returns its name and open descriptor.
 std::pair<std::string, int> make_temporary(const std::string& path) {
   const std::filesystem::path target(path);
   std::filesystem::path dir = target.parent_path();
   if (dir.empty()) dir = ".";
-  std::string base = ".";  // hidden temporary next to the target
-  base += target.filename().string();
-  base += ".tmp-XXXXXX";
+  const std::string base = hidden_prefix(target, 11) + ".tmp-XXXXXX";
   const std::string name = (dir / base).string();
   std::vector<char> buffer(name.begin(), name.end());
   buffer.push_back('\0');
@@ -119,9 +125,8 @@ void AtomicFileWriter::commit() {
     if (dir.empty()) dir = ".";
     const std::string proc = "/proc/self/fd/" + std::to_string(fd_);
     for (int attempt = 0; temp_path_.empty(); ++attempt) {
-      std::string base = ".";
-      base += target.filename().string();
-      base += ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(attempt);
+      const std::string base = hidden_prefix(target, 32) + ".tmp-" + std::to_string(::getpid()) +
+                               "-" + std::to_string(attempt);
       const std::string name = (dir / base).string();
       if (::linkat(AT_FDCWD, proc.c_str(), AT_FDCWD, name.c_str(), AT_SYMLINK_FOLLOW) == 0)
         temp_path_ = name;

@@ -15,6 +15,11 @@ namespace basis {
 using nlohmann::json;
 
 json JsonFields::parse() const {
+  // The parser takes a NUL byte for the end of its input and would ignore what follows.
+  if (const std::size_t nul = text_.find('\0'); nul != std::string::npos) {
+    const int line = 1 + int(std::count(text_.begin(), text_.begin() + std::ptrdiff_t(nul), '\n'));
+    throw FileError(name_ + ":" + std::to_string(line) + ": invalid JSON: a NUL byte");
+  }
   try {
     // A key given twice in one object is refused: the parser would keep the last silently.
     std::vector<std::set<std::string>> keys;  // of each object being read, outermost first

@@ -109,6 +109,14 @@ TEST(AtomicFileWriter, PublishesOnlyOnCommit) {
   EXPECT_EQ(line, "a,b");
   EXPECT_THROW(AtomicFileWriter(dir.file("no/such/folder/x")), FileError);
   EXPECT_THROW(AtomicFileWriter(dir.path()), FileError);  // a folder
+  // Names up to the longest a file may have: the temporary is not named after them.
+  for (const std::size_t length : {200, 243, 255}) {
+    const std::string name = std::string(length - 4, 'n') + ".csv";
+    AtomicFileWriter long_name(dir.file(name));
+    long_name.write(std::string_view("x\n"));
+    long_name.commit();
+    EXPECT_TRUE(std::filesystem::exists(dir.file(name))) << length;
+  }
 }
 
 // Through a symbolic link to a file, both forms of atomic writing replace the link's target and

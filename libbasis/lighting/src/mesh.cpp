@@ -9,9 +9,11 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <optional>
 #include <sstream>
+#include <string_view>
 
 namespace basis {
 
@@ -51,15 +53,43 @@ class MaterialFilesBeside final : public tinyobj::MaterialReader {
       return false;
     }
     tinyobj::LoadMtl(names, materials, &in, warning, error);
+    files_.push_back(path.string());
     return true;
   }
 
+  const std::vector<std::string>& files() const { return files_; }
+
  private:
   std::filesystem::path folder_;
+  std::vector<std::string> files_;
 };
 
-// tinyobjloader reads a coordinate it cannot parse ("nan", "abc") as 0 without a word, so the
-// numbers of vertex lines are checked here before it reads the file.
+// A face line's indices (v, v/t, v//n, v/t/n, negative from the end) that do not fit a 32-bit
+// int, which tinyobjloader would wrap round to another vertex, or that are not integers.
+void check_face_indices(const std::string& path, int number, std::string_view rest) {
+  auto separator = [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '/'; };
+  for (std::size_t at = 0; at < rest.size();) {
+    if (separator(rest[at])) {
+      ++at;
+      continue;
+    }
+    std::size_t end = at;
+    while (end < rest.size() && !separator(rest[end]))
+      ++end;
+    const std::string_view field = rest.substr(at, end - at);
+    long long index = 0;
+    const auto [stop, error] = std::from_chars(field.data(), field.data() + field.size(), index);
+    if (error != std::errc() || stop != field.data() + field.size() || index == 0 ||
+        index > std::numeric_limits<int>::max() || index < -std::numeric_limits<int>::max())
+      throw FileError(path + ":" + std::to_string(number) + ": face index '" + std::string(field) +
+                      "' is not a vertex number");
+    at = end;
+  }
+}
+
+// tinyobjloader reads a coordinate it cannot parse ("nan", "abc") as 0 without a word, and
+// wraps face indices beyond 32 bits round, so the numbers of vertex and face lines are checked
+// here before it reads the file.
 void check_vertex_numbers(const std::string& path) {
   std::ifstream in(path);
   std::string line;
@@ -67,6 +97,11 @@ void check_vertex_numbers(const std::string& path) {
   for (int number = 1; std::getline(in, line); ++number) {
     // The reader skips leading blanks, so a vertex line may be indented.
     const std::size_t start = std::min(line.find_first_not_of(" \t"), line.size());
+    if (line.size() >= start + 2 && line[start] == 'f' &&
+        (line[start + 1] == ' ' || line[start + 1] == '\t')) {
+      check_face_indices(path, number, std::string_view(line).substr(start + 2));
+      continue;
+    }
     if (line.size() < start + 2 || line[start] != 'v' ||
         (line[start + 1] != ' ' && line[start + 1] != '\t'))
       continue;
@@ -162,6 +197,8 @@ void TriangleMesh::append(const TriangleMesh& other) {
   dropped_degenerate += other.dropped_degenerate;
   reader_warnings.insert(reader_warnings.end(), other.reader_warnings.begin(),
                          other.reader_warnings.end());
+  material_files.insert(material_files.end(), other.material_files.begin(),
+                        other.material_files.end());
 }
 
 TriangleMesh read_obj(const std::string& path) {
@@ -183,6 +220,7 @@ TriangleMesh read_obj(const std::string& path) {
         path + ": " +
         (reader_error.empty() ? std::string("cannot read OBJ") : first_line(reader_error)));
   TriangleMesh mesh;
+  mesh.material_files = material_files.files();
   std::istringstream warnings(reader_warning);
   for (std::string line; std::getline(warnings, line);)
     if (line.find_first_not_of(" \t\r.") != std::string::npos &&

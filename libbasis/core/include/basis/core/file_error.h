@@ -8,7 +8,9 @@ namespace basis {
 
 class FileError : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  // NUL bytes in the message (a file's text quoted in it) are written as \0, so that what()
+  // does not end at the first.
+  explicit FileError(const std::string& message);
 };
 
 // Throws FileError naming `path` unless it is a regular file (links followed), before a reader

@@ -94,8 +94,9 @@ inline constexpr float kLargestValueScale = 0x1p110f, kLargestBoundScale = 0x1p1
 // small as subnormals get a scale that is not zero); 1 when every value is 0.
 float half_value_scale(double largest);
 
-// The smallest bound code whose value times bound_scale is at least `bound` (255 when none is):
-// a bound rounded up to a code, so that it still holds.
+// The smallest bound code whose value times bound_scale is at least `bound`, both as the float
+// product and as the exact one (255 when none is): a bound rounded up to a code, so that it
+// still holds however a reader scales it.
 std::uint8_t bound_code_at_least(double bound, float bound_scale);
 
 // How far a half-rounded value may lie from what it rounds, in units of its tree's value scale:

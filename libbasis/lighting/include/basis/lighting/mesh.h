@@ -29,6 +29,9 @@ struct TriangleMesh {
   // What the OBJ reader went past, one line each naming the file: a material file or material
   // it could not find (the triangles that use it then emit nothing).
   std::vector<std::string> reader_warnings;
+  // The material files (mtllib) it read, as paths from the working folder: inputs that no
+  // output may overwrite.
+  std::vector<std::string> material_files;
 
   bool has_emitters() const;
   // Length of the bounding box's diagonal (0 for an empty mesh).
