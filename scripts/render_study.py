@@ -239,7 +239,8 @@ def main():
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="Writes OUT_DIR/render_study.json, a Markdown table on stdout and the charts\n"
                "figure1.png (equal-time insets), figure7.png (time split) and figure8.png\n"
-               "(render times) in OUT_DIR. Needs build/bin (scripts/setup.sh) and the maps of\n"
+               "(render times) in OUT_DIR; with --main-job, OUT_DIR/render_main_job.json and\n"
+               "Figures 1 and 7, and a summary line on stdout. Needs build/bin (scripts/setup.sh) and the maps of\n"
                "Debian's blender-data; the charts need matplotlib (Debian's python3-matplotlib:\n"
                "run it with /usr/bin/python3).")
     modes = parser.add_mutually_exclusive_group()

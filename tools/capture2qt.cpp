@@ -319,7 +319,11 @@ int main(int argc, char** argv) {
     if (recipe.shard) {
       const auto why = basis::why_shard_must_be_made(output, recipe, sources, bound_kind);
       if (skip_existing && !why) {
-        if (!quiet)
+        if (json)
+          std::cout << basis::json_text(nlohmann::ordered_json{
+                           {"output", output}, {"shard", shard_text}, {"skipped", true}})
+                    << "\n";
+        else if (!quiet)
           std::printf("%s: shard %s present, complete and unaltered: skipped\n", output.c_str(),
                       shard_text.c_str());
         return;
@@ -333,7 +337,7 @@ int main(int argc, char** argv) {
         {"--env", env_path}, {"--scene", scene_path}, {"--points", points_path}};
     if (mesh)
       for (const std::string& file : mesh->material_files)
-        inputs.push_back({scene_path, file});
+        inputs.push_back({"--scene", file, "a material file " + scene_path + " names"});
     basis::cli::check_outputs_spare_inputs({{"-o", output}}, inputs);
     basis::cli::check_output_place(output);
     DumpedImages dumped;

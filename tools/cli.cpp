@@ -249,7 +249,7 @@ void check_outputs_spare_inputs(const std::vector<NamedPath>& outputs,
   std::vector<std::pair<std::string, std::string>> inputs;
   for (const NamedPath& in : given) {
     if (in.path.empty()) continue;
-    inputs.push_back({"the file " + in.option + " reads", in.path});
+    inputs.push_back({in.what.empty() ? "the file " + in.option + " reads" : in.what, in.path});
     // A shard's checksum beside it (capture2qt's) belongs to it.
     inputs.push_back({"the checksum of " + in.path, checksum_path(in.path)});
     if (!is_manifest(in.path)) continue;

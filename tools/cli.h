@@ -79,6 +79,8 @@ CLI::Validator unsigned_number();
 struct NamedPath {
   std::string option;
   std::string path;
+  // What the file is, in messages, when not "the file OPTION reads".
+  std::string what = {};
 };
 // Throws UsageError when an output is the same file as an input (links and relative paths
 // resolved, for files that exist; an input manifest's shards and their checksums count as

@@ -194,7 +194,8 @@ int main(int argc, char** argv) {
     // The meshes' material files (mtllib) are inputs too.
     std::vector<basis::cli::NamedPath> material_files;
     for (const std::string& path : scene.mesh.material_files)
-      material_files.push_back({scene_path + "'s meshes", path});
+      material_files.push_back(
+          {scene_path, path, "a material file a mesh of " + scene_path + " names"});
     basis::cli::check_outputs_spare_inputs({{"-o", output}, {"its PNG", png}}, material_files);
     const double load_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();

@@ -177,6 +177,7 @@ TEST(Capture2qtCli, BadScenesAndImagesAreOneLineExitOne) {
   // not a number.
   std::ofstream(dir.file("wrap.obj")) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4294967299\n";
   std::ofstream(dir.file("word.obj")) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1/x 2 3\n";
+  std::ofstream(dir.file("cr.obj")) << "v 0 0 0\rv 1 0 0\rv 0 1 0\rf 1 2 4294967299\r";
   std::ofstream(dir.file("bad.csv")) << "0,0,0,0,0,1\n1,2,three,0,0,1\n";
   Image wide(32, 16, 3);
   write_image(dir.file("wide.exr"), wide);
@@ -190,7 +191,8 @@ TEST(Capture2qtCli, BadScenesAndImagesAreOneLineExitOne) {
       {"--env", "bad.csv", "--at", "0,0,0"},
       {"--image", "wide.exr"},
       {"--env-constant", "1,1,1", "--scene", "wrap.obj", "--sample", "3"},
-      {"--env-constant", "1,1,1", "--scene", "word.obj", "--sample", "3"}};
+      {"--env-constant", "1,1,1", "--scene", "word.obj", "--sample", "3"},
+      {"--env-constant", "1,1,1", "--scene", "cr.obj", "--sample", "3"}};
   for (const auto& args : cases) {
     const auto r = run_tool("capture2qt", args, dir.path());
     EXPECT_EQ(r.status, 1) << args[3] << ": " << r.err;
@@ -207,6 +209,19 @@ TEST(Capture2qtCli, BadScenesAndImagesAreOneLineExitOne) {
   EXPECT_NE(run_tool("capture2qt", cases[9], dir.path())
                 .err.find("word.obj:4: face index 'x' is not a vertex number"),
             std::string::npos);
+  // Lines that end at a lone carriage return are checked as the reader splits them.
+  EXPECT_NE(run_tool("capture2qt", cases[10], dir.path())
+                .err.find("cr.obj:4: face index '4294967299' is not a vertex number"),
+            std::string::npos);
+  // Signed indices, relative ones and the v/t/n forms are faces, not errors.
+  std::ofstream(dir.file("forms.obj"))
+      << "v 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\nvt 0 0\r\nvn 0 0 1\r\n"
+         "f +1 +2 +3\r\nf\t-3/1 -2/1 -1/1\r\n  f 1//1 2//1 3//1\r\nf 1/1/1 2/1/1 3/1/1\r\n";
+  const auto forms = run_tool("capture2qt",
+                              {"--env-constant", "1,1,1", "--scene", "forms.obj", "--sample", "2",
+                               "--res", "8", "-o", "forms.qt"},
+                              dir.path());
+  EXPECT_EQ(forms.status, 0) << forms.err;
   // A degenerate triangle is dropped with a warning.
   std::ofstream(dir.file("flat.obj")) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\n";
   const auto flat = run_tool("capture2qt",
@@ -226,9 +241,9 @@ TEST(Capture2qtCli, BadScenesAndImagesAreOneLineExitOne) {
   EXPECT_NE(lamp.err.find("capture2qt: warning: lamp.obj: Material file [ gone.mtl ] not found"),
             std::string::npos)
       << lamp.err;
-  std::vector<std::string> expected = {"bad.csv",  "empty.obj", "flat.obj", "flat.qt",
-                                       "lamp.obj", "lamp.qt",   "nan.obj",  "range.obj",
-                                       "wide.exr", "word.obj",  "wrap.obj"};
+  std::vector<std::string> expected = {"bad.csv",   "cr.obj",   "empty.obj", "flat.obj", "flat.qt",
+                                       "forms.obj", "forms.qt", "lamp.obj",  "lamp.qt",  "nan.obj",
+                                       "range.obj", "wide.exr", "word.obj",  "wrap.obj"};
   EXPECT_EQ(dir.entries(), expected);
 }
 

@@ -308,6 +308,19 @@ TEST(ShardCli, ReRunsRedoOnlyTheShardsThatAreMissingOrAltered) {
   }
   EXPECT_EQ(skipped, "0");
   EXPECT_EQ(std::filesystem::last_write_time(dir.file("s.0.qt")), untouched);
+  // With --json (quiet or not), a skipped shard says so as JSON.
+  std::vector<std::string> again = light();
+  for (const std::string& a :
+       {std::string("--scene"), kScene, std::string("--res"), std::string("16"),
+        std::string("--spp"), std::string("1"), std::string("--skip-existing"),
+        std::string("--shard"), std::string("0/4"), std::string("-o"), std::string("s.0.qt"),
+        std::string("--json"), std::string("-q")})
+    again.push_back(a);
+  const auto as_json = run_tool("capture2qt", with(again, sample(26)), dir.path());
+  ASSERT_EQ(as_json.status, 0) << as_json.err;
+  const auto j = nlohmann::json::parse(as_json.out);
+  EXPECT_EQ(j["skipped"], true);
+  EXPECT_EQ(j["output"], "s.0.qt");
   ASSERT_EQ(run_tool("qtmerge", {"s.0.qt", "s.1.qt", "s.2.qt", "s.3.qt", "-o", "m.qt"}, dir.path())
                 .status,
             0);

@@ -137,7 +137,9 @@ float lane(__m128 v, int q) {
 }
 
 // Four bound codes in one word (byte q for lane q), each the smallest whose value times
-// bound_scale reaches its lane of `bound` (bound_code_at_least, four at a time), for bounds up
+// bound_scale reaches its lane of `bound` as a float product (bound_code_at_least also asks it
+// of the exact product; the fold's 2^-20 margin on its bounds covers the difference in the
+// normal floats), for bounds up
 // to bound_scale (the fold's scale is its largest bound; larger ones would take code 255, short
 // of them): estimated from the float bits of bound / bound_scale, which never overshoot, then
 // raised while short of it (once is enough; twice guards the float product's rounding).

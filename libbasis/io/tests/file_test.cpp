@@ -89,6 +89,12 @@ TEST(Checksum, ChecksumFilesReadBackAndRefuseOtherContent) {
   EXPECT_EQ(read_checksum_file(inside), hex);
 }
 
+// A message that quotes a NUL byte (a file's text) keeps what follows it, the byte written \0.
+TEST(FileError, NulBytesInTheMessageAreWrittenOut) {
+  const FileError error(std::string("spec.json: unknown model 'a\0b'", 30));
+  EXPECT_EQ(std::string(error.what()), "spec.json: unknown model 'a\\0b'");
+}
+
 TEST(AtomicFileWriter, PublishesOnlyOnCommit) {
   TempDir dir;
   const std::string path = dir.file("out.csv");

@@ -77,10 +77,13 @@ void check_face_indices(const std::string& path, int number, std::string_view re
     while (end < rest.size() && !separator(rest[end]))
       ++end;
     const std::string_view field = rest.substr(at, end - at);
+    // The reader takes a leading + as its integer parsing does.
+    const std::string_view digits = field.front() == '+' ? field.substr(1) : field;
     long long index = 0;
-    const auto [stop, error] = std::from_chars(field.data(), field.data() + field.size(), index);
-    if (error != std::errc() || stop != field.data() + field.size() || index == 0 ||
-        index > std::numeric_limits<int>::max() || index < -std::numeric_limits<int>::max())
+    const auto [stop, error] = std::from_chars(digits.data(), digits.data() + digits.size(), index);
+    if (digits.empty() || error != std::errc() || stop != digits.data() + digits.size() ||
+        index == 0 || index > std::numeric_limits<int>::max() ||
+        index < -std::numeric_limits<int>::max())
       throw FileError(path + ":" + std::to_string(number) + ": face index '" + std::string(field) +
                       "' is not a vertex number");
     at = end;
@@ -92,19 +95,19 @@ void check_face_indices(const std::string& path, int number, std::string_view re
 // here before it reads the file.
 void check_vertex_numbers(const std::string& path) {
   std::ifstream in(path);
-  std::string line;
   long long vertex = 0;
-  for (int number = 1; std::getline(in, line); ++number) {
-    // The reader skips leading blanks, so a vertex line may be indented.
+  // Lines end at \n, \r\n or a lone \r, as the reader ends them.
+  auto check_line = [&](const std::string& line, int number) {
+    // The reader skips leading blanks, so a vertex or face line may be indented.
     const std::size_t start = std::min(line.find_first_not_of(" \t"), line.size());
     if (line.size() >= start + 2 && line[start] == 'f' &&
         (line[start + 1] == ' ' || line[start + 1] == '\t')) {
       check_face_indices(path, number, std::string_view(line).substr(start + 2));
-      continue;
+      return;
     }
     if (line.size() < start + 2 || line[start] != 'v' ||
         (line[start + 1] != ' ' && line[start + 1] != '\t'))
-      continue;
+      return;
     ++vertex;
     std::istringstream tokens(line.substr(start + 2));
     std::string token;
@@ -118,6 +121,13 @@ void check_vertex_numbers(const std::string& path) {
         throw FileError(path + ":" + std::to_string(number) + ": vertex " + std::to_string(vertex) +
                         " is NaN or infinite");
     }
+  };
+  int number = 0;
+  for (std::string text; std::getline(in, text);) {
+    std::istringstream parts(text);
+    for (std::string line; std::getline(parts, line, '\r');)
+      check_line(line, ++number);
+    if (text.empty()) ++number;
   }
 }
 
