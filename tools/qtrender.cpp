@@ -189,14 +189,16 @@ int main(int argc, char** argv) {
     {
       basis::cli::ProgressBar progress("qtrender: tabulating", quiet);
       load.control = progress.control();
+      // The meshes' material files (mtllib) are inputs too, checked before any work on them.
+      load.before_materials = [&](const std::vector<std::string>& files) {
+        std::vector<basis::cli::NamedPath> material_files;
+        for (const std::string& path : files)
+          material_files.push_back(
+              {scene_path, path, "a material file a mesh of " + scene_path + " names"});
+        basis::cli::check_outputs_spare_inputs({{"-o", output}, {"its PNG", png}}, material_files);
+      };
       scene = arena->execute([&] { return basis::load_render_scene(file, load); });
     }
-    // The meshes' material files (mtllib) are inputs too.
-    std::vector<basis::cli::NamedPath> material_files;
-    for (const std::string& path : scene.mesh.material_files)
-      material_files.push_back(
-          {scene_path, path, "a material file a mesh of " + scene_path + " names"});
-    basis::cli::check_outputs_spare_inputs({{"-o", output}, {"its PNG", png}}, material_files);
     const double load_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
 

@@ -482,6 +482,22 @@ TEST(BadInputMatrix, OutputsThatWouldDestroyAnInputAreRefused) {
          2,
          "lamp.mtl is a material file lamp.obj names"});
   EXPECT_EQ(testing::slurp(dir.file("lamp.mtl")), materials);
+  // qtrender checks them before any material is tabulated (its table would be cached beside the
+  // spec): here the render's PNG would replace the material file an OBJ names.
+  write_text(dir.file("odd.png"), "newmtl glow\nKe 5 5 5\n");
+  write_text(dir.file("odd.obj"),
+             "mtllib odd.png\nv 0 0 1\nv 1 0 1\nv 0 1 1\nusemtl glow\nf 1 2 3\n");
+  write_text(dir.file("scene.json"),
+             R"({"camera": {"eye": [0, -9, 4], "look_at": [0, 0, 0.7], "up": [0, 0, 1],
+                 "fov": 40, "width": 8, "height": 6},
+                 "environment": {"constant": [1, 1, 1]},
+                 "meshes": [{"obj": "odd.obj", "material": "ok.json"}]})");
+  const std::string odd = testing::slurp(dir.file("odd.png"));
+  check(dir, "qtrender",
+        {{"scene.json", "-o", "odd.exr"},
+         2,
+         "its PNG odd.png is a material file a mesh of scene.json names"});
+  EXPECT_EQ(testing::slurp(dir.file("odd.png")), odd);
 }
 
 // Output names up to the longest a file may have (255 bytes) are written: the temporaries and

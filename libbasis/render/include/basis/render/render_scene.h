@@ -35,6 +35,9 @@ struct SceneLoadOptions {
   // environment texels repaired); may be empty.
   std::function<void(const std::string&)> note;
   TaskControl control;  // progress of tabulation, cancellation
+  // Called with the meshes' material files (mtllib) once every mesh is read, before any
+  // material is loaded or tabulated (a tool checks that its outputs spare them); may be empty.
+  std::function<void(const std::vector<std::string>&)> before_materials;
 };
 
 // Loads every file a scene names. Problems are one-line FileErrors naming the scene file, the
