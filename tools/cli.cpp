@@ -288,11 +288,15 @@ void check_output_place(const std::string& path) {
   if (!std::filesystem::is_directory(folder, error)) throw FileError(path + ": no such folder");
 }
 
-void check_png_name(const std::string& path, const std::string& option) {
+std::string lower_case_extension(const std::string& path) {
   std::string extension = std::filesystem::path(path).extension().string();
   std::transform(extension.begin(), extension.end(), extension.begin(),
                  [](unsigned char c) { return char(std::tolower(c)); });
-  if (!path.empty() && extension != ".png")
+  return extension;
+}
+
+void check_png_name(const std::string& path, const std::string& option) {
+  if (!path.empty() && lower_case_extension(path) != ".png")
     throw UsageError(option + " names a PNG file (.png), got " + path);
 }
 

@@ -92,6 +92,8 @@ void check_outputs_spare_inputs(const std::vector<NamedPath>& outputs,
 // Throws FileError naming `path` when an output cannot go there, checked before any work is
 // done: its folder is missing, or it is a folder itself. Empty paths are skipped.
 void check_output_place(const std::string& path);
+// The extension of a path's file name (".PNG" gives ".png"; "" when it has none).
+std::string lower_case_extension(const std::string& path);
 // Throws UsageError unless `path` (given to `option`) is empty or names a PNG file (.png): the
 // image is written after the work, and its format is chosen by that name.
 void check_png_name(const std::string& path, const std::string& option);

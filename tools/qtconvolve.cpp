@@ -1,6 +1,5 @@
 // qtconvolve: convolve .qt files. Two trees give their integral; a BRDF table and captures give
 // the reflected radiance at every capture; two capture sets give their products point by point.
-#include <cctype>
 #include <cstdarg>
 #include <cstdio>
 #include <filesystem>
@@ -327,10 +326,7 @@ int main(int argc, char** argv) {
             recorded.push_back({"--reference", file});
             // A scene's material files (mtllib), which tracing reads with it. A scene that does
             // not read is the reference's error, which names the captures that recorded it.
-            std::string extension = std::filesystem::path(file).extension().string();
-            for (char& c : extension)
-              c = char(std::tolower(static_cast<unsigned char>(c)));
-            if (extension != ".obj") continue;
+            if (basis::cli::lower_case_extension(file) != ".obj") continue;
             try {
               for (const std::string& material : basis::read_obj(file).material_files)
                 recorded.push_back({"--reference", material, "a material file " + file + " names"});

@@ -213,30 +213,28 @@ TEST(Capture2qtCli, BadScenesAndImagesAreOneLineExitOne) {
   EXPECT_NE(run_tool("capture2qt", cases[10], dir.path())
                 .err.find("cr.obj:4: face index '4294967299' is not a vertex number"),
             std::string::npos);
+  // Two points on a scene under a constant light, at 8 x 8.
+  auto capture_scene = [&](const std::string& obj, const std::string& output) {
+    return run_tool(
+        "capture2qt",
+        {"--env-constant", "1,1,1", "--scene", obj, "--sample", "2", "--res", "8", "-o", output},
+        dir.path());
+  };
   // Signed indices, relative ones and the v/t/n forms are faces, not errors.
   std::ofstream(dir.file("forms.obj"))
       << "v 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\nvt 0 0\r\nvn 0 0 1\r\n"
          "f +1 +2 +3\r\nf\t-3/1 -2/1 -1/1\r\n  f 1//1 2//1 3//1\r\nf 1/1/1 2/1/1 3/1/1\r\n";
-  const auto forms = run_tool("capture2qt",
-                              {"--env-constant", "1,1,1", "--scene", "forms.obj", "--sample", "2",
-                               "--res", "8", "-o", "forms.qt"},
-                              dir.path());
+  const auto forms = capture_scene("forms.obj", "forms.qt");
   EXPECT_EQ(forms.status, 0) << forms.err;
   // A degenerate triangle is dropped with a warning.
   std::ofstream(dir.file("flat.obj")) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\n";
-  const auto flat = run_tool("capture2qt",
-                             {"--env-constant", "1,1,1", "--scene", "flat.obj", "--sample", "2",
-                              "--res", "8", "-o", "flat.qt"},
-                             dir.path());
+  const auto flat = capture_scene("flat.obj", "flat.qt");
   EXPECT_EQ(flat.status, 0) << flat.err;
   EXPECT_NE(flat.err.find("1 degenerate triangles dropped"), std::string::npos) << flat.err;
   // A material file that is not there (its emitters would go dark) is warned of.
   std::ofstream(dir.file("lamp.obj")) << "mtllib gone.mtl\nv 0 0 1\nv 1 0 1\nv 0 1 1\n"
                                          "usemtl glow\nf 1 2 3\n";
-  const auto lamp = run_tool("capture2qt",
-                             {"--env-constant", "1,1,1", "--scene", "lamp.obj", "--sample", "2",
-                              "--res", "8", "-o", "lamp.qt"},
-                             dir.path());
+  const auto lamp = capture_scene("lamp.obj", "lamp.qt");
   EXPECT_EQ(lamp.status, 0) << lamp.err;
   EXPECT_NE(lamp.err.find("capture2qt: warning: lamp.obj: Material file [ gone.mtl ] not found"),
             std::string::npos)
