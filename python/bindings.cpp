@@ -548,7 +548,11 @@ PYBIND11_MODULE(basis, m) {
       .def_property_readonly(
           "zero_copy", [](const File& f) { return f.file->zero_copy(); },
           "Whether the trees are read in place from the mapped file (False: restored into memory, "
-          "as capture sets of format 7 are).")
+          "as capture sets of format 7 and later are).")
+      .def_property_readonly(
+          "checksum_verified", [](const File& f) { return f.file->checksum_verified(); },
+          "Whether the file carried the checksum of its bytes, which loading checked (format "
+          "version 8 on; a file changed after it was written is refused).")
       .def_property_readonly(
           "provenance",
           [](const File& f) {

@@ -1,6 +1,7 @@
 #include "basis/format/qt_file.h"
 #include "basis/core/projection.h"
 #include "basis/core/refined_values.h"
+#include "basis/io/checksum.h"
 
 #include <fcntl.h>
 #include <sys/mman.h>
@@ -8,6 +9,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -160,6 +162,17 @@ std::string extent_problem(const TreeExtent& e, bool exact_texels) {
   return {};
 }
 
+// Where the checksum field's 16 bytes lie in a verified buffer.
+std::size_t checksum_offset(const std::uint8_t* bytes, const fb::Checksum& stored) {
+  return std::size_t(stored.bytes()->Data() - bytes);
+}
+
+// The checksum a buffer should carry: its bytes' XXH3-128 with the field's 16 read as zeros.
+std::array<std::byte, 16> expected_checksum(std::span<const std::byte> bytes, std::size_t at) {
+  const std::array<std::byte, 16> zeros{};
+  return pieces_checksum_bytes({bytes.first(at), zeros, bytes.subspan(at + zeros.size())});
+}
+
 // Opens a regular file of at most the format's size; returns its descriptor and size.
 std::pair<int, std::size_t> open_regular_file(const std::string& path) {
   // Without blocking, so that a FIFO is refused below instead of waiting for a writer.
@@ -277,6 +290,18 @@ void QtFile::verify() {
     fail(name_, "format version " + std::to_string(version_) + " is newer than this build reads (" +
                     std::to_string(kQtFormatVersion) + ")");
   if (version_ == 0) fail(name_, "format version 0 is not a valid .qt version");
+  if (version_ >= 8) {  // before anything the file holds is used
+    const fb::Checksum* stored = root->checksum();
+    if (!stored)
+      fail(name_, "no checksum, which format version " + std::to_string(version_) +
+                      " files carry (corrupt file)");
+    const std::span<const std::byte> all(reinterpret_cast<const std::byte*>(bytes), size_);
+    const std::size_t at = checksum_offset(bytes, *stored);
+    if (std::memcmp(expected_checksum(all, at).data(), bytes + at, 16) != 0)
+      fail(name_,
+           "checksum mismatch: the file's bytes changed after it was written (damaged, cut short "
+           "or added to); write it again");
+  }
   if (root->mapping() != fb::Mapping::CosineConcentric)
     fail(name_, "unknown mapping " + std::to_string(int(root->mapping())));
   switch (root->kind()) {
@@ -781,12 +806,14 @@ std::vector<std::byte> finish(flatbuffers::FlatBufferBuilder& b, fb::Kind kind,
                               flatbuffers::Offset<fb::BrdfTable> table,
                               flatbuffers::Offset<fb::CaptureSet> captures,
                               flatbuffers::Offset<fb::Provenance> provenance) {
+  const fb::Checksum unsealed;
   const auto root = fb::CreateFile(b, kQtFormatVersion, kind, fb::Mapping::CosineConcentric, trees,
-                                   table, captures, provenance);
+                                   table, captures, provenance, &unsealed);
   fb::FinishFileBuffer(b, root);
   const auto* data = reinterpret_cast<const std::byte*>(b.GetBufferPointer());
   std::vector<std::byte> bytes(data, data + b.GetSize());
   try {
+    if (!seal_qt_checksum(bytes)) throw FileError("the encoded file: cannot seal its checksum");
     QtFile::verify_bytes(bytes, "the encoded file");
   } catch (const FileError& e) {
     throw std::invalid_argument(std::string("refusing to write what the reader refuses: ") +
@@ -872,6 +899,19 @@ std::vector<std::byte> encode_capture_set(const CaptureSetView& captures,
   const auto info = fb::CreateCaptureSet(b, positions, normals, tangents, lights, light_offsets);
   const auto prov = build_provenance(b, provenance);
   return finish(b, fb::Kind::CaptureSet, trees, 0, info, prov);
+}
+
+bool seal_qt_checksum(std::span<std::byte> bytes) {
+  const auto* data = reinterpret_cast<const std::uint8_t*>(bytes.data());
+  if (bytes.size() < 8 || !fb::FileBufferHasIdentifier(data)) return false;
+  flatbuffers::Verifier verifier(data, bytes.size());
+  if (!fb::VerifyFileBuffer(verifier)) return false;
+  const fb::Checksum* stored = fb::GetFile(data)->checksum();
+  if (!stored) return false;
+  const std::size_t at = checksum_offset(data, *stored);
+  const std::array<std::byte, 16> sum = expected_checksum(bytes, at);
+  std::memcpy(bytes.data() + at, sum.data(), sum.size());
+  return true;
 }
 
 void write_qt(const std::string& path, std::span<const std::byte> encoded) {

@@ -21,6 +21,7 @@ ordered_json summarise(const QtFile& file) {
   j["file"] = file.name();
   j["bytes"] = file.byte_size();
   j["format_version"] = file.format_version();
+  j["checksum_verified"] = file.checksum_verified();
   j["kind"] = to_string(file.kind());
   j["mapping"] = "cosine-weighted concentric";
   j["trees"] = trees.size();
@@ -136,6 +137,8 @@ ordered_json summarise(const CaptureManifest& manifest, const TaskControl& contr
     total["bytes"] = total["bytes"].get<std::uint64_t>() + j["bytes"].get<std::uint64_t>();
     total["trees"] = total["trees"].get<std::uint64_t>() + j["trees"].get<std::uint64_t>();
     total["zero_copy"] = total["zero_copy"].get<bool>() && j["zero_copy"].get<bool>();
+    total["checksum_verified"] =
+        total["checksum_verified"].get<bool>() && j["checksum_verified"].get<bool>();
     ordered_json& nodes = total["nodes"];
     nodes["total"] = nodes["total"].get<std::uint64_t>() + j["nodes"]["total"].get<std::uint64_t>();
     nodes["min"] =
@@ -178,7 +181,8 @@ std::string render_text(const ordered_json& j) {
   out << "file         " << j["file"].get<std::string>() << " ("
       << bytes_text(j["bytes"].get<double>());
   if (j.contains("manifest")) out << " in " << j["manifest"]["shards"].size() << " shard files";
-  out << ", format " << j["format_version"].get<std::uint32_t>() << ")\n";
+  out << ", format " << j["format_version"].get<std::uint32_t>()
+      << (j.value("checksum_verified", false) ? ", checksum verified" : "") << ")\n";
   if (j.contains("manifest")) {
     const auto& shards = j["manifest"]["shards"];
     out << "shards       a manifest of " << shards.size()

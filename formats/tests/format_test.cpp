@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -133,7 +134,8 @@ TreeExtent whole_tree(const PackedTree& tree) {
 }
 
 // The bytes of a tree or a capture set written with the schema alone, without the library
-// writer's checks (as a damaged or foreign writer could), at the current version.
+// writer's checks (as a damaged or foreign writer could), at the current version; from version
+// 8 on with their checksum sealed, so that the reader's other checks are what they meet.
 std::vector<std::byte> unchecked_file(const TreeSetView& trees, const CaptureSetView* captures,
                                       std::uint8_t bound_kind = 0,
                                       std::uint32_t version = kQtFormatVersion,
@@ -183,12 +185,17 @@ std::vector<std::byte> unchecked_file(const TreeSetView& trees, const CaptureSet
         structs.operator()<format::Vec3>(captures->tangents),
         structs.operator()<format::Light>(captures->lights),
         b.CreateVector(captures->light_offsets.data(), captures->light_offsets.size()));
+  const format::Checksum unsealed;
   const auto root =
       format::CreateFile(b, version, captures ? format::Kind::CaptureSet : format::Kind::Tree,
-                         format::Mapping::CosineConcentric, set_offset, 0, info);
+                         format::Mapping::CosineConcentric, set_offset, 0, info, 0,
+                         version >= 8 ? &unsealed : nullptr);
   format::FinishFileBuffer(b, root);
   const auto* data = reinterpret_cast<const std::byte*>(b.GetBufferPointer());
-  return {data, data + b.GetSize()};
+  std::vector<std::byte> bytes(data, data + b.GetSize());
+  if (version >= 8 && !seal_qt_checksum(bytes))
+    throw std::logic_error("unchecked_file: the schema's buffer did not take its checksum");
+  return bytes;
 }
 
 // A file of version 1 or 2 (float trees: 16-byte quads of links, values and error bounds).
@@ -363,6 +370,8 @@ TEST(QtFormat, BadCaptureLightsAreNamedAndNeverWritten) {
   ASSERT_NE(at, bytes.end());
   const std::uint32_t two = 2;
   std::memcpy(&*at + 4, &two, 4);
+  EXPECT_NE(load_error(bytes).find("checksum mismatch"), std::string::npos);
+  ASSERT_TRUE(seal_qt_checksum(bytes));  // as a writer that checks nothing would leave it
   EXPECT_NE(load_error(bytes).find("light offsets"), std::string::npos);
   CaptureSet short_offsets = good;
   short_offsets.light_offsets.pop_back();
@@ -372,8 +381,9 @@ TEST(QtFormat, BadCaptureLightsAreNamedAndNeverWritten) {
   EXPECT_THROW(encode_capture_set(no_offsets.view(), {}, {}), std::invalid_argument);
 }
 
-// Every mutated or truncated buffer either loads as a valid file, whose trees then convolve
-// to finite values, or is rejected with a FileError; nothing else happens.
+// Every mutated or truncated buffer is refused by its checksum with one line. Sealed again (as a
+// writer that checks nothing would leave it), it either loads as a valid file, whose trees then
+// convolve to finite values, or is rejected with a FileError; nothing else happens.
 TEST(QtFormat, MutatedAndTruncatedFilesLoadValidOrFailCleanly) {
   const std::vector<std::vector<std::byte>> originals = {
       encode_tree(sample_tree(32, 3, 1).view(), {}, test_provenance()),
@@ -382,9 +392,14 @@ TEST(QtFormat, MutatedAndTruncatedFilesLoadValidOrFailCleanly) {
       encode_capture_set(exact_captures(3).view(), {}, test_provenance())};
   const PackedTree probe = sample_tree(8, 1, 0);
   std::mt19937 rng(2024);
-  int loaded = 0, rejected = 0;
+  int changed = 0, loaded = 0, rejected = 0;
+  auto expect_one_line = [](const FileError& e) {
+    ASSERT_EQ(std::string(e.what()).rfind("mutated.qt: ", 0), 0u) << e.what();
+    ASSERT_EQ(std::string(e.what()).find('\n'), std::string::npos);
+  };
   for (int trial = 0; trial < 6000; ++trial) {
-    std::vector<std::byte> bytes = originals[trial % originals.size()];
+    const std::vector<std::byte>& original = originals[trial % originals.size()];
+    std::vector<std::byte> bytes = original;
     std::uniform_int_distribution<std::size_t> position(0, bytes.size() - 1);
     switch (trial / originals.size() % 4) {  // every kind of mutation for every original
       case 0:                                // truncate
@@ -406,6 +421,16 @@ TEST(QtFormat, MutatedAndTruncatedFilesLoadValidOrFailCleanly) {
           if (p + 4 <= bytes.size()) std::memcpy(&bytes[p], &extremes[rng() % 6], 4);
         }
     }
+    if (bytes != original) {
+      ++changed;
+      try {
+        QtFile::from_bytes(bytes, "mutated.qt");
+        FAIL() << "a changed file loaded (trial " << trial << ")";
+      } catch (const FileError& e) {
+        expect_one_line(e);
+      }
+    }
+    seal_qt_checksum(bytes);  // where the structure still holds the field
     try {
       const QtFile file = QtFile::from_bytes(bytes, "mutated.qt");
       ++loaded;
@@ -417,12 +442,97 @@ TEST(QtFormat, MutatedAndTruncatedFilesLoadValidOrFailCleanly) {
       }
     } catch (const FileError& e) {
       ++rejected;
-      ASSERT_EQ(std::string(e.what()).rfind("mutated.qt: ", 0), 0u) << e.what();
-      ASSERT_EQ(std::string(e.what()).find('\n'), std::string::npos);
+      expect_one_line(e);
     }
   }
+  EXPECT_GT(changed, 5500);
   EXPECT_GT(rejected, 3000);
-  EXPECT_GT(loaded, 0);  // mutations of values that stay valid
+  EXPECT_GT(loaded, 300);  // mutations of values that stay valid once sealed
+}
+
+// Version 8 files carry the XXH3-128 of their own bytes (the field read as zeros); any byte
+// changed, added or cut is refused, values included, which no structural check can see. Files of
+// earlier versions carry none and still load.
+TEST(QtFormat, ChecksumRefusesEveryChangedByte) {
+  const std::vector<std::vector<std::byte>> files = {
+      encode_tree(sample_tree(16, 3, 1).view(), {}, test_provenance()),
+      encode_brdf_table(sample_table(2).view(), "phong", "{}", {}, test_provenance()),
+      encode_capture_set(exact_captures(2).view(), {}, test_provenance())};
+  for (const std::vector<std::byte>& file : files) {
+    const auto* root = format::GetFile(file.data());
+    ASSERT_NE(root->checksum(), nullptr);
+    const auto* field = reinterpret_cast<const std::byte*>(root->checksum()->bytes()->Data());
+    const std::size_t at = std::size_t(field - file.data());
+    // The stored bytes are the canonical XXH3-128 of the file with them zeroed, as xxh128sum
+    // prints it.
+    std::vector<std::byte> zeroed = file;
+    std::fill_n(zeroed.begin() + std::ptrdiff_t(at), 16, std::byte{0});
+    std::string stored;
+    for (int k = 0; k < 16; ++k) {
+      static constexpr char kHex[] = "0123456789abcdef";
+      stored += kHex[unsigned(file[at + k]) >> 4];
+      stored += kHex[unsigned(file[at + k]) & 15];
+    }
+    TempDir dir;
+    const std::string zeroed_path = dir.path() + "/zeroed.qt";
+    std::ofstream(zeroed_path, std::ios::binary)
+        .write(reinterpret_cast<const char*>(zeroed.data()), std::streamsize(zeroed.size()));
+    ASSERT_EQ(::system(("xxh128sum '" + zeroed_path + "' > '" + zeroed_path + ".sum'").c_str()), 0);
+    std::string printed;
+    std::ifstream(zeroed_path + ".sum") >> printed;
+    EXPECT_EQ(stored, printed);
+    EXPECT_TRUE(QtFile::from_bytes(file, "input.qt").checksum_verified());
+
+    // Every byte changed, one at a time: refused; in the trees' words with the checksum's
+    // words.
+    const auto* words = root->trees()->words();
+    const std::size_t words_at =
+        std::size_t(reinterpret_cast<const std::byte*>(words->Data()) - file.data());
+    const std::size_t words_end = words_at + words->size() * sizeof(std::uint32_t);
+    int in_words = 0;
+    for (std::size_t p = 0; p < file.size(); ++p) {
+      std::vector<std::byte> changed = file;
+      changed[p] ^= std::byte{0x10};
+      const std::string error = load_error(changed);
+      ASSERT_EQ(error.rfind("input.qt: ", 0), 0u) << "byte " << p << " changed, loaded";
+      if (p >= words_at && p < words_end) {
+        ++in_words;
+        EXPECT_NE(error.find("checksum mismatch"), std::string::npos) << error;
+      }
+    }
+    EXPECT_GT(in_words, 100);
+    std::vector<std::byte> longer = file;
+    longer.push_back(std::byte{0});
+    EXPECT_NE(load_error(longer).find("checksum mismatch"), std::string::npos);
+    EXPECT_NE(load_error({file.data(), file.size() - 1}), "");
+  }
+
+  // A version 8 file without the field is refused; version 7, which had none, loads.
+  const PackedTree tree = sample_tree(8, 3, 1);
+  const TreeExtent extent = whole_tree(tree);
+  const TreeSetView set(tree.shape, {&extent, 1}, tree.words);
+  {
+    flatbuffers::FlatBufferBuilder b;
+    const auto words = b.CreateVector(set.words().data(), set.words().size());
+    const auto extents = b.CreateVectorOfStructs(
+        reinterpret_cast<const format::NodeExtent*>(set.extents().data()), set.extents().size());
+    format::TreeSetBuilder trees(b);
+    trees.add_resolution(tree.shape.resolution);
+    trees.add_channels(tree.shape.channels);
+    trees.add_groups(tree.shape.groups);
+    trees.add_node_extents(extents);
+    trees.add_words(words);
+    const auto trees_offset = trees.Finish();
+    format::FinishFileBuffer(
+        b, format::CreateFile(b, 8, format::Kind::Tree, format::Mapping::CosineConcentric,
+                              trees_offset));
+    const auto* data = reinterpret_cast<const std::byte*>(b.GetBufferPointer());
+    EXPECT_EQ(load_error({data, b.GetSize()}),
+              "input.qt: no checksum, which format version 8 files carry (corrupt file)");
+  }
+  const std::vector<std::byte> version7 = unchecked_file(set, nullptr, 0, 7);
+  EXPECT_EQ(load_error(version7), "");
+  EXPECT_FALSE(QtFile::from_bytes(version7, "input.qt").checksum_verified());
 }
 
 TEST(QtFormat, ForeignEmptyAndFutureFilesAreRejected) {

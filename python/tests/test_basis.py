@@ -119,7 +119,13 @@ def test_files_made_by_the_tools_shade_as_qtconvolve_does(made_by_tools):
     assert table.kind == "brdf-table" and captures.kind == "capture-set"
     # A table is read where it lies; a capture set's refined nodes are restored on loading.
     assert table.zero_copy and not captures.zero_copy
-    assert captures.format_version >= 7
+    assert captures.format_version >= 8 and captures.checksum_verified
+    # One byte changed in the middle of the trees: refused by the checksum, naming the file.
+    damaged = bytearray((d / "captures.qt").read_bytes())
+    damaged[len(damaged) // 2] ^= 0x10
+    (d / "damaged.qt").write_bytes(bytes(damaged))
+    with pytest.raises(basis.Error, match="damaged.qt: checksum mismatch"):
+        basis.load(str(d / "damaged.qt"))
     assert len(captures.captures()) == len(POINTS)
     np.testing.assert_allclose(captures.captures().positions, POINTS)
     for wo, args in (((0, 0, 1), []), ((0.3, 0.2, 0.93), ["--wo", "0.3,0.2,0.93"]),

@@ -572,6 +572,18 @@ TEST(BadInputMatrix, ATableWhoseSpecIsNotItsBrdfIsNotTakenForIt) {
   other.insert(other.size() - 1, spec.size() - other.size(), ' ');
   table.replace(at, spec.size(), other);
   std::ofstream(dir.file("damaged.qt"), std::ios::binary) << table;
+  // Changed after it was written, the file is refused by its checksum...
+  const auto changed = run_tool("qtconvolve", {"damaged.qt", "sun.qt", "--json"}, dir.path());
+  EXPECT_EQ(changed.status, 1);
+  EXPECT_NE(changed.err.find("damaged.qt: checksum mismatch"), std::string::npos) << changed.err;
+  EXPECT_EQ(testing::line_count(changed.err), 1) << changed.err;
+  // ...and written so by a writer that checks nothing (its checksum sealed over the wrong spec),
+  // its texels light the sun.
+  std::vector<std::byte> sealed(reinterpret_cast<const std::byte*>(table.data()),
+                                reinterpret_cast<const std::byte*>(table.data()) + table.size());
+  ASSERT_TRUE(seal_qt_checksum(sealed));
+  std::ofstream(dir.file("damaged.qt"), std::ios::binary)
+      .write(reinterpret_cast<const char*>(sealed.data()), std::streamsize(sealed.size()));
   const auto damaged = run_tool("qtconvolve", {"damaged.qt", "sun.qt", "--json"}, dir.path());
   ASSERT_EQ(damaged.status, 0) << damaged.err;
   EXPECT_NE(damaged.err.find("damaged.qt: its stored spec (lambert, 3 channels) is not its "

@@ -1,16 +1,21 @@
-// libFuzzer target: .qt buffers are loaded and verified; whatever loads must convolve, and a
-// capture set's lights must be readable and valid.
+// libFuzzer target: .qt buffers are loaded and verified, as given and then with their checksum
+// sealed (so that changed bytes reach the checks past the checksum); whatever loads must
+// convolve, and a capture set's lights must be readable and valid.
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <span>
+#include <vector>
 
 #include "basis/core/convolution.h"
 #include "basis/core/projection.h"
 #include "basis/format/qt_file.h"
 
-extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+namespace {
+
+void load_and_use(std::span<const std::byte> bytes) {
   try {
-    const basis::QtFile file =
-        basis::QtFile::from_bytes({reinterpret_cast<const std::byte*>(data), size}, "input.qt");
+    const basis::QtFile file = basis::QtFile::from_bytes(bytes, "input.qt");
     basis::Grid one(2, 1);
     for (float& t : one.texels)
       t = 1;
@@ -32,5 +37,15 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     }
   } catch (const basis::FileError&) {
   }
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  const std::span<const std::byte> given(reinterpret_cast<const std::byte*>(data), size);
+  load_and_use(given);
+  std::vector<std::byte> sealed(given.begin(), given.end());
+  if (basis::seal_qt_checksum(sealed) && !std::equal(sealed.begin(), sealed.end(), given.begin()))
+    load_and_use(sealed);
   return 0;
 }

@@ -31,14 +31,20 @@ class Xxh128 {
     if (XXH3_128bits_update(state_.get(), data, size) != XXH_OK)
       throw std::runtime_error("XXH3-128 update failed");
   }
-  std::string hex() const {
+  std::array<std::byte, 16> canonical_bytes() const {
     XXH128_canonical_t canonical;
     XXH128_canonicalFromHash(&canonical, XXH3_128bits_digest(state_.get()));
+    static_assert(sizeof(canonical.digest) == 16);
+    std::array<std::byte, 16> bytes;
+    std::memcpy(bytes.data(), canonical.digest, bytes.size());
+    return bytes;
+  }
+  std::string hex() const {
     static constexpr char kHex[] = "0123456789abcdef";
     std::string text;
-    for (const unsigned char byte : canonical.digest) {
-      text += kHex[byte >> 4];
-      text += kHex[byte & 15];
+    for (const std::byte byte : canonical_bytes()) {
+      text += kHex[unsigned(byte) >> 4];
+      text += kHex[unsigned(byte) & 15];
     }
     return text;
   }
@@ -66,6 +72,14 @@ std::string pieces_checksum_hex(std::initializer_list<std::span<const std::byte>
   for (const std::span<const std::byte> piece : pieces)
     hash.update(piece.data(), piece.size());
   return hash.hex();
+}
+
+std::array<std::byte, 16> pieces_checksum_bytes(
+    std::initializer_list<std::span<const std::byte>> pieces) {
+  Xxh128 hash;
+  for (const std::span<const std::byte> piece : pieces)
+    hash.update(piece.data(), piece.size());
+  return hash.canonical_bytes();
 }
 
 std::string file_checksum_hex(const std::string& path) {

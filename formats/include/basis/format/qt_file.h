@@ -23,11 +23,12 @@ namespace basis {
 // version 5 texel nodes of values alone in trees with exact texels (captures) and extents in
 // words, version 6 the values of RGB trees with exact texels as shared-exponent words (4 bytes
 // a quadrant instead of 6), version 7 those sets' nodes refined over all four quadrants as
-// their link alone (refined_values.h). Versions 3 to 6 load where they lie (the extents of 3 and
-// 4 converted), and so do version 7's other sets; version 7's capture sets have their derived
-// values restored on loading; versions 1 and 2 their float trees packed on loading with
-// largest-deviation (linf) bounds.
-inline constexpr std::uint32_t kQtFormatVersion = 7;
+// their link alone (refined_values.h), version 8 the checksum of the file's own bytes, which
+// readers check before anything else in the file is used. Versions 3 to 6 load where they lie
+// (the extents of 3 and 4 converted), and so do the other sets of versions 7 and 8; their capture
+// sets have their derived values restored on loading; versions 1 and 2 their float trees packed
+// on loading with largest-deviation (linf) bounds. Files before version 8 carry no checksum.
+inline constexpr std::uint32_t kQtFormatVersion = 8;
 
 // Limits checked before anything is allocated from a file's claims.
 inline constexpr std::uint64_t kQtMaxFileBytes = (std::uint64_t(1) << 31) - 1;  // FlatBuffers
@@ -75,9 +76,11 @@ class QtFile {
   ProjectionOptions projection() const { return projection_; }
   // The single tree of a kind-tree file (the first tree otherwise).
   PackedTreeView tree() const { return trees_.tree(0); }
-  // Whether the trees are used where they lie in the file (versions 3 to 6, and version 7's sets
-  // without derived values) or were packed or restored on loading (versions 1 and 2, and
-  // version 7's sets of shared-exponent values).
+  // Whether the file carried its checksum, which loading checked (format version 8 on).
+  bool checksum_verified() const { return version_ >= 8; }
+  // Whether the trees are used where they lie in the file (versions 3 to 6, and later versions'
+  // sets without derived values) or were packed or restored on loading (versions 1 and 2, and
+  // later versions' sets of shared-exponent values).
   bool zero_copy() const { return converted_.empty() && restored_words_.empty(); }
   // The table of a kind-brdf_table file; throws FileError for other kinds.
   BrdfTableView brdf_table() const;
@@ -161,6 +164,12 @@ std::vector<std::byte> encode_brdf_table(const BrdfTableView& table, const std::
 std::vector<std::byte> encode_capture_set(const CaptureSetView& captures,
                                           const ProjectionOptions& projection,
                                           const Provenance& provenance);
+
+// Writes the checksum of a .qt buffer into its checksum field (format version 8): the XXH3-128
+// of all its bytes with the field's 16 read as zeros. Returns false, changing nothing, when the
+// bytes are not a structurally sound .qt buffer that has the field. Encoders seal what they
+// return; this is for tools that edit a buffer's bytes on purpose (tests, fuzzing).
+bool seal_qt_checksum(std::span<std::byte> bytes);
 
 // Writes an encoded buffer atomically (see atomic_file.h).
 void write_qt(const std::string& path, std::span<const std::byte> encoded);

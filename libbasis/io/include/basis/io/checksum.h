@@ -4,6 +4,7 @@
 // missing it); it is not a signature against deliberate forgery.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <initializer_list>
 #include <span>
@@ -18,6 +19,11 @@ std::string checksum_hex(std::span<const std::byte> bytes);
 
 // The XXH3-128 of the pieces' bytes one after the other: checksum_hex of their concatenation.
 std::string pieces_checksum_hex(std::initializer_list<std::span<const std::byte>> pieces);
+
+// The XXH3-128 of the pieces' bytes one after the other as its 16 canonical bytes (most
+// significant first: the bytes the hex digits above spell).
+std::array<std::byte, 16> pieces_checksum_bytes(
+    std::initializer_list<std::span<const std::byte>> pieces);
 
 // The XXH3-128 of a file's contents, read in pieces. Throws FileError naming the file when it
 // cannot be read.
