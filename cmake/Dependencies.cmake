@@ -10,9 +10,10 @@ find_package(FlatBuffers REQUIRED CONFIG)
 find_package(nlohmann_json 3 REQUIRED CONFIG)
 find_package(tinyobjloader REQUIRED CONFIG)
 find_package(nanoflann REQUIRED CONFIG)
-# xxHash (checksums of shard files) has no CMake package in Debian: its pkg-config file.
+# xxHash (checksums of .qt and shard files) has no CMake package in Debian: its pkg-config file.
+# 0.8.0 on: XXH3-128's output is fixed from that release, and .qt files store it.
 find_package(PkgConfig REQUIRED)
-pkg_check_modules(xxhash REQUIRED IMPORTED_TARGET libxxhash)
+pkg_check_modules(xxhash REQUIRED IMPORTED_TARGET libxxhash>=0.8.0)
 if(BASIS_BUILD_TESTS)
   find_package(GTest REQUIRED CONFIG)
   find_package(benchmark REQUIRED CONFIG)

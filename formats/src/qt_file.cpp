@@ -290,17 +290,19 @@ void QtFile::verify() {
     fail(name_, "format version " + std::to_string(version_) + " is newer than this build reads (" +
                     std::to_string(kQtFormatVersion) + ")");
   if (version_ == 0) fail(name_, "format version 0 is not a valid .qt version");
-  if (version_ >= 8) {  // before anything the file holds is used
-    const fb::Checksum* stored = root->checksum();
-    if (!stored)
-      fail(name_, "no checksum, which format version " + std::to_string(version_) +
-                      " files carry (corrupt file)");
+  // Before anything the file holds is used; whatever version it claims, so that a changed
+  // version cannot turn the check off.
+  if (const fb::Checksum* stored = root->checksum()) {
     const std::span<const std::byte> all(reinterpret_cast<const std::byte*>(bytes), size_);
     const std::size_t at = checksum_offset(bytes, *stored);
     if (std::memcmp(expected_checksum(all, at).data(), bytes + at, 16) != 0)
       fail(name_,
            "checksum mismatch: the file's bytes changed after it was written (damaged, cut short "
            "or added to); write it again");
+    checksum_verified_ = true;
+  } else if (version_ >= 8) {
+    fail(name_, "no checksum, which format version " + std::to_string(version_) +
+                    " files carry (corrupt file)");
   }
   if (root->mapping() != fb::Mapping::CosineConcentric)
     fail(name_, "unknown mapping " + std::to_string(int(root->mapping())));

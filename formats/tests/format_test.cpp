@@ -381,7 +381,7 @@ TEST(QtFormat, BadCaptureLightsAreNamedAndNeverWritten) {
   EXPECT_THROW(encode_capture_set(no_offsets.view(), {}, {}), std::invalid_argument);
 }
 
-// Every mutated or truncated buffer is refused by its checksum with one line. Sealed again (as a
+// Every mutated or truncated buffer is refused with one line. Sealed again (as a
 // writer that checks nothing would leave it), it either loads as a valid file, whose trees then
 // convolve to finite values, or is rejected with a FileError; nothing else happens.
 TEST(QtFormat, MutatedAndTruncatedFilesLoadValidOrFailCleanly) {
@@ -501,6 +501,17 @@ TEST(QtFormat, ChecksumRefusesEveryChangedByte) {
       }
     }
     EXPECT_GT(in_words, 100);
+    // A version changed to an earlier one, which had no checksum, does not turn the check off.
+    const auto* version_field = reinterpret_cast<const flatbuffers::Table*>(root)->GetAddressOf(
+        format::File::VT_FORMAT_VERSION);
+    ASSERT_NE(version_field, nullptr);
+    const std::size_t version_at =
+        std::size_t(reinterpret_cast<const std::byte*>(version_field) - file.data());
+    for (std::uint32_t earlier = 1; earlier < 8; ++earlier) {
+      std::vector<std::byte> downgraded = file;
+      std::memcpy(downgraded.data() + version_at, &earlier, 4);
+      EXPECT_NE(load_error(downgraded).find("checksum mismatch"), std::string::npos) << earlier;
+    }
     std::vector<std::byte> longer = file;
     longer.push_back(std::byte{0});
     EXPECT_NE(load_error(longer).find("checksum mismatch"), std::string::npos);

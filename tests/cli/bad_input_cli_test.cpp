@@ -58,6 +58,9 @@ void write_inputs(const TempDir& dir) {
   write_text(dir.file("foreign.qtm"), "{\"format\": \"something else\", \"version\": 1}");
   const std::string table = testing::slurp(dir.file("ok.qt"));
   write_text(dir.file("truncated.qt"), table.substr(0, table.size() / 3));
+  std::string changed = table;  // one bit of the trees' words, which only the checksum sees
+  changed[changed.size() / 2] ^= 1;
+  write_text(dir.file("changed.qt"), changed);
   write_text(dir.file("empty.qt"), "");
   write_text(dir.file("empty.json"), "");
   write_text(dir.file("foreign.qt"), "\x89PNG\r\n\x1a\n....");
@@ -134,7 +137,7 @@ TEST(BadInputMatrix, QtReaders) {
   TempDir dir;
   write_inputs(dir);
   for (const std::string name : {"missing.qt", "empty.qt", "folder", "truncated.qt", "foreign.qt",
-                                 "future.qt", "truncated.qtm", "foreign.qtm"}) {
+                                 "future.qt", "changed.qt", "truncated.qtm", "foreign.qtm"}) {
     check(dir, "qtinfo", {{name}, 1, name});
     check(dir, "qtconvolve", {{name, "cap.qt"}, 1, name});
     check(dir, "qtconvolve", {{"ok.qt", name}, 1, name});
@@ -144,6 +147,7 @@ TEST(BadInputMatrix, QtReaders) {
   check(dir, "qtmerge", {{"cap.qt", "-o", "out.qt"}, 1, "cap.qt: a whole capture set, not a"});
   check(dir, "qtmerge", {{"ok.qt", "--manifest", "out.qtm"}, 1, "ok.qt: a brdf-table, not a"});
   check(dir, "qtinfo", {{"future.qt"}, 1, "format version 99 is newer"});
+  check(dir, "qtinfo", {{"changed.qt"}, 1, "changed.qt: checksum mismatch"});
   // JSON of another kind (a spec) is named as such, not judged as a manifest's fields.
   check(dir, "qtinfo", {{"ok.json"}, 1, "ok.json: JSON, but not a .qt file or a capture-set"});
   check(dir, "qtconvolve", {{"ok.qt", "ok.json"}, 1, "ok.json: JSON, but not a .qt file"});

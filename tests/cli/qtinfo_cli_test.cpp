@@ -34,6 +34,7 @@ TEST(QtinfoCli, DescribesATreeInTextAndJson) {
   EXPECT_NE(text.out.find("kind         tree"), std::string::npos);
   EXPECT_NE(text.out.find(std::to_string(tree.node_count()) + " in all"), std::string::npos);
   EXPECT_NE(text.out.find("3 % of each channel's mean"), std::string::npos);
+  EXPECT_NE(text.out.find(", checksum verified)"), std::string::npos);
 
   const auto json = run_tool("qtinfo", {path, "--json"});
   ASSERT_EQ(json.status, 0) << json.err;
@@ -46,6 +47,7 @@ TEST(QtinfoCli, DescribesATreeInTextAndJson) {
   EXPECT_EQ(j["nodes"]["per_level"].get<std::vector<int>>(), levels);
   EXPECT_DOUBLE_EQ(j["storage"]["dense_bytes"].get<double>(), 64.0 * 64 * 3 * 4);
   EXPECT_EQ(j["provenance"]["sources"][0], "x.exr");
+  EXPECT_EQ(j["checksum_verified"], true);
 }
 
 TEST(QtinfoCli, DrawsThePictureWithCellOutlines) {

@@ -378,6 +378,8 @@ TEST(ShardCli, QtinfoAddsUpTheShards) {
   EXPECT_EQ(a["storage"]["tree_bytes"], b["storage"]["tree_bytes"]);
   EXPECT_EQ(a["provenance"], b["provenance"]);
   EXPECT_EQ(a["manifest"]["shards"].size(), 2u);
+  EXPECT_EQ(a["checksum_verified"], true);
+  EXPECT_EQ(b["checksum_verified"], true);
   // A picture of capture 12, the second shard's third (shards of 9 and 10).
   ASSERT_EQ(run_tool("qtinfo", {"set.qtm", "--png", "a.png", "--index", "12"}, dir.path()).status,
             0);

@@ -77,7 +77,7 @@ class QtFile {
   // The single tree of a kind-tree file (the first tree otherwise).
   PackedTreeView tree() const { return trees_.tree(0); }
   // Whether the file carried its checksum, which loading checked (format version 8 on).
-  bool checksum_verified() const { return version_ >= 8; }
+  bool checksum_verified() const { return checksum_verified_; }
   // Whether the trees are used where they lie in the file (versions 3 to 6, and later versions'
   // sets without derived values) or were packed or restored on loading (versions 1 and 2, and
   // later versions' sets of shared-exponent values).
@@ -132,18 +132,20 @@ class QtFile {
   std::string name_;
   QtKind kind_ = QtKind::tree;
   std::uint32_t version_ = 0;
+  bool checksum_verified_ = false;
   ProjectionOptions projection_;
   TreeSetView trees_;
   TreeSetView tilt_;
   std::vector<TreeSet> converted_;  // trees of versions 1 and 2, packed
-  // Words restored from version 7 sets: memory left uninitialised until the trees are written
-  // into it; from 2 MiB on, a mapping of its own asked for on huge pages (restore_elided_trees).
+  // Words restored from the sets of version 7 and later: memory left uninitialised until the
+  // trees are written into it; from 2 MiB on, a mapping of its own asked for on huge pages
+  // (restore_elided_trees).
   struct FreeWords {
     std::size_t mapped_bytes = 0;  // nonzero for a mapping
     void operator()(std::uint32_t* words) const noexcept;
   };
   std::vector<std::unique_ptr<std::uint32_t[], FreeWords>> restored_words_;
-  // Extents of versions 3 and 4, converted, and of version 7's restored sets.
+  // Extents of versions 3 and 4, converted, and of restored sets (version 7 and later).
   std::vector<std::vector<TreeExtent>> converted_extents_;
   // Restored trees' PackedTreeView::derived_rounding, one vector per restored set.
   std::vector<std::vector<float>> derived_roundings_;
@@ -165,10 +167,8 @@ std::vector<std::byte> encode_capture_set(const CaptureSetView& captures,
                                           const ProjectionOptions& projection,
                                           const Provenance& provenance);
 
-// Writes the checksum of a .qt buffer into its checksum field (format version 8): the XXH3-128
-// of all its bytes with the field's 16 read as zeros. Returns false, changing nothing, when the
-// bytes are not a structurally sound .qt buffer that has the field. Encoders seal what they
-// return; this is for tools that edit a buffer's bytes on purpose (tests, fuzzing).
+// Writes into a .qt buffer's checksum field the XXH3-128 of all its bytes, the field's 16 read as
+// zeros; false, changing nothing, for bytes without a sound structure holding the field.
 bool seal_qt_checksum(std::span<std::byte> bytes);
 
 // Writes an encoded buffer atomically (see atomic_file.h).
