@@ -144,6 +144,14 @@ float lane(__m128 v, int q) {
 // of them): estimated from the float bits of bound / bound_scale, which never overshoot, then
 // raised while short of it (once is enough; twice guards the float product's rounding).
 std::uint32_t bound_codes_at_least(__m128 bound, float bound_scale) {
+  // Below 2^-95 a code's product with the scale may be subnormal, where the float product can
+  // round above the exact one by 2^-150: codes that reach the bound both ways, one by one.
+  if (bound_scale < 0x1p-95f) {
+    std::uint32_t codes = 0;
+    for (int q = 0; q < 4; ++q)
+      codes |= std::uint32_t(bound_code_at_least(double(lane(bound, q)), bound_scale)) << (8 * q);
+    return codes;
+  }
   const __m128 scale = _mm_set1_ps(bound_scale);
   const __m128i bias = _mm_set1_epi32(int(kBoundCodeBias)), largest = _mm_set1_epi32(255);
   const __m128i bits = _mm_max_epu32(_mm_castps_si128(_mm_div_ps(bound, scale)), bias);
@@ -235,8 +243,10 @@ std::vector<FoldedNode> fold_nodes(std::span<const WeightedTerm> weighted, int c
 
 // The fold's nodes packed (packed_tree.h: two groups of halves, l2 bound codes for both): values
 // to the nearest half, half magnitudes rounded up, the live bounds plus how far their value
-// moved, every bound rounded up to its code.
-PackedTree pack_folded(const std::vector<FoldedNode>& nodes, int resolution, int channels) {
+// moved, every bound plus `bound_slack` (what the terms' weighted bounds lost below the normal
+// floats) rounded up to its code.
+PackedTree pack_folded(const std::vector<FoldedNode>& nodes, int resolution, int channels,
+                       float bound_slack) {
   PackedTree out;
   out.shape = {resolution, channels, 2, BoundKind::l2, 2};
   out.texel_start = nodes.size();
@@ -268,9 +278,11 @@ PackedTree pack_folded(const std::vector<FoldedNode>& nodes, int resolution, int
       _mm_storel_epi64(reinterpret_cast<__m128i*>(w + 1 + 2 * (channels + c)), magnitude);
       const __m128 moved =
           _mm_mul_ps(abs_lanes(_mm_sub_ps(_mm_cvtph_ps(value), scaled)), from_half);
-      const __m128 live =
-          _mm_mul_ps(_mm_add_ps(nodes[n].live[c], moved), _mm_set1_ps(1 + 0x1p-20f));
-      const __m128 stopped = _mm_mul_ps(nodes[n].stopped[c], _mm_set1_ps(1 + 0x1p-20f));
+      const __m128 slack = _mm_set1_ps(bound_slack);
+      const __m128 live = _mm_mul_ps(_mm_add_ps(_mm_add_ps(nodes[n].live[c], moved), slack),
+                                     _mm_set1_ps(1 + 0x1p-20f));
+      const __m128 stopped =
+          _mm_mul_ps(_mm_add_ps(nodes[n].stopped[c], slack), _mm_set1_ps(1 + 0x1p-20f));
       _mm_storeu_ps(bounds[n * std::size_t(2 * channels) + std::size_t(c)].data(), live);
       _mm_storeu_ps(bounds[n * std::size_t(2 * channels) + std::size_t(channels + c)].data(),
                     stopped);
@@ -302,15 +314,40 @@ FoldedTree fold(std::span<const WeightedTerm> terms) {
   for (const WeightedTerm& t : terms)
     if (t.tree.shape().channels == 3) channels = 3;
   const int resolution = terms.front().tree.shape().resolution;
-  FoldedTree folded{pack_folded(fold_nodes(terms, channels), resolution, channels), 1};
-  // The terms' subnormal rounding, in the folded tree's value units.
+  // What read_node's float products lose below the normal floats, which no relative term covers.
+  // Values: a weight times the value scale that is subnormal is off by up to 2^-150 (times a half
+  // of at most 65504), and products that can be subnormal (the weight under 2^-102, the smallest
+  // half 2^-24) by up to 2^-150 each. Bounds likewise: a subnormal weight times the bound scale
+  // (times a code of at most bound_code_value(255)), and products under a weight below 2^-95
+  // (the smallest code 2^-31). Nothing in the normal floats.
+  double lost_values = 0, lost_bounds = 0;
+  for (const WeightedTerm& t : terms)
+    for (int g = 0; g < t.groups; ++g) {
+      const float w = t.weights[std::size_t(g)];
+      const double value_weight = double(w) * double(t.tree.scales().value_scale);
+      const double bound_weight = std::abs(double(w)) * double(t.tree.scales().bound_scale);
+      // As scaled() rounds them.
+      lost_values += 65504.0 * std::abs(double(w * t.tree.scales().value_scale) - value_weight) +
+                     (std::abs(value_weight) < 0x1p-102 ? 0x1p-150 : 0);
+      lost_bounds +=
+          double(bound_code_value(255)) *
+              std::abs(double(std::abs(w) * t.tree.scales().bound_scale) - bound_weight) +
+          (bound_weight < 0x1p-95 ? 0x1p-150 : 0);
+    }
+  const float bound_slack = std::nextafter(float(lost_bounds), INFINITY);
+  FoldedTree folded{pack_folded(fold_nodes(terms, channels), resolution, channels,
+                                lost_bounds > 0 ? bound_slack : 0),
+                    1};
+  // The terms' subnormal rounding, in the folded tree's value units (2^-25 value_scale), and what
+  // the products lost, twice (their magnitudes, which the rounding terms take, lost as much).
+  const double value_scale = folded.tree.scales.value_scale;
   for (const WeightedTerm& t : terms) {
     double weight = 0;
     for (int g = 0; g < t.groups; ++g)
       weight += std::abs(double(t.weights[std::size_t(g)]));
-    folded.floor_weight +=
-        float(weight * double(t.tree.scales().value_scale) / folded.tree.scales.value_scale);
+    folded.floor_weight += float(weight * double(t.tree.scales().value_scale) / value_scale);
   }
+  folded.floor_weight += float(2 * lost_values / (kHalfSubnormalRounding * value_scale));
   folded.floor_weight = std::nextafter(folded.floor_weight, INFINITY);
   return folded;
 #else

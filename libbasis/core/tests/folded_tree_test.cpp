@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <limits>
+#include <random>
 #include <vector>
 
 #include "basis/core/folded_tree.h"
@@ -178,6 +179,59 @@ TEST(FoldedTree, RoundingOfTermsSumAndLightStaysWithinTheBound) {
   const double error = std::abs(double(result.value[0]) - truth);
   EXPECT_GT(error, 1.4 * ulp);  // the test is one the bound could fail
   EXPECT_LE(error, result.bound[0]);
+}
+
+// Weights and trees so small that the fold's float products fall below the normal floats, where
+// they lose bits that no relative rounding term covers: one weight, 1.5 x 2^-23, times a value
+// scale of 2^-126 lies halfway between two subnormals and rounds up by a third, and every value
+// with it. The folded convolution stays within its bound of the texels' product, for every
+// weight from 2^-149 to 1 against terms from 2^-120 to 1.
+TEST(FoldedTree, WeightsAndScalesBelowTheNormalFloatsKeepTheBound) {
+  const int n = 8;
+  std::mt19937 rng(61);
+  std::uniform_real_distribution<float> unit(1, 2);
+  Grid light(n, 1);
+  for (float& t : light.texels)
+    t = unit(rng);
+  const PackedTree b = pack(project(light, {.tolerance = 0}));
+  int cases = 0;
+  for (const float scale : {1.0f, 0x1p-112f, 0x1p-120f})
+    for (const bool constant : {true, false}) {
+      Grid grid(n, 1);
+      for (float& t : grid.texels)
+        t = constant ? 1.5f * scale : unit(rng) * scale;
+      for (const float tolerance : {0.0f, 0.1f}) {
+        const PackedTree a = pack(project(grid, {.tolerance = tolerance}), BoundKind::l2);
+        for (const float w : {1.5f * 0x1p-23f, 0.7f, 1.3f * 0x1p-100f, 1.7f * 0x1p-130f,
+                              1.1f * 0x1p-143f, 0x1p-149f}) {
+          long double exact = 0;
+          for (std::size_t k = 0; k < grid.texels.size(); ++k)
+            exact += (long double)w * grid.texels[k] * light.texels[k];
+          exact /= n * n;
+          const std::vector<WeightedTerm> terms = {{a.view(), {w, 0, 0}, 1}};
+          const Convolution r = convolve(fold(terms), b.view());
+          EXPECT_LE(std::abs((long double)r.value[0] - exact), (long double)r.bound[0])
+              << "terms of 2^" << std::ilogb(scale) << (constant ? " (constant)" : "")
+              << ", tolerance " << tolerance << ", weight " << w << ": value " << r.value[0]
+              << ", exact " << double(exact);
+          ++cases;
+        }
+      }
+    }
+  EXPECT_EQ(cases, 72);
+  // The case that shows the loss: the folded value a third above the product.
+  Grid grid(n, 1);
+  for (float& t : grid.texels)
+    t = 1.5f * 0x1p-112f;
+  const PackedTree a = pack(project(grid, {.tolerance = 0}), BoundKind::l2);
+  const std::vector<WeightedTerm> terms = {{a.view(), {1.5f * 0x1p-23f, 0, 0}, 1}};
+  long double exact = 0;
+  for (const float t : light.texels)
+    exact += (long double)(1.5f * 0x1p-23f) * (1.5f * 0x1p-112f) * t;
+  exact /= n * n;
+  const Convolution r = convolve(fold(terms), b.view());
+  EXPECT_GT(std::abs((long double)r.value[0] - exact), exact / 4);
+  EXPECT_LE(std::abs((long double)r.value[0] - exact), (long double)r.bound[0]);
 }
 
 // The smallest trees that fill a fold's queue at once: four terms of two nodes each (the root and

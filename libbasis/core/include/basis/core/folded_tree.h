@@ -34,7 +34,8 @@ inline constexpr std::size_t kMaxFoldedTerms = 4;
 struct FoldedTree {
   PackedTree tree;
   // The subnormal rounding the terms' values carry, in units of the folded tree's value scale
-  // (sum_t sum_g |w| value_scale_t / value_scale), plus the folded values' own.
+  // (sum_t sum_g |w| value_scale_t / value_scale), plus the folded values' own and what the
+  // fold's float products lost below the normal floats.
   float floor_weight = 1;
 };
 
