@@ -72,20 +72,35 @@ struct WeightedNode {
   __m128 value[3], magnitude[3], bound[3];
 };
 
-// A term with its weights in the units of its tree's values and bound codes.
+// A term with its weights in the units of its tree's values and bound codes, and what its
+// weighted bounds may lose below the normal floats (added to each of them).
 struct ScaledTerm {
   PackedTreeView tree;
   int groups = 1, tree_channels = 1;
   std::array<float, 3> value_weight{}, bound_weight{};
+  float bound_slack = 0;
 };
 
 ScaledTerm scaled(const WeightedTerm& term) {
-  ScaledTerm out{term.tree, term.groups, term.tree.shape().channels, {}, {}};
+  ScaledTerm out{term.tree, term.groups, term.tree.shape().channels, {}, {}, 0};
+  double lost = 0;
   for (int g = 0; g < term.groups; ++g) {
     const float w = term.weights[std::size_t(g)];
     out.value_weight[std::size_t(g)] = w * term.tree.scales().value_scale;
-    out.bound_weight[std::size_t(g)] = std::abs(w) * term.tree.scales().bound_scale;
+    const float bound_weight = std::abs(w) * term.tree.scales().bound_scale;
+    out.bound_weight[std::size_t(g)] = bound_weight;
+    if (w == 0) continue;  // its products are zeros, exactly
+    // A subnormal weight is off by up to half its spacing, times a code of at most
+    // bound_code_value(255); its products with codes (at least 2^-31) may be subnormal below a
+    // weight of 2^-95, each off by up to 2^-150. In the normal floats the fold's 2^-20 margin
+    // covers the relative rounding.
+    if (bound_weight < 0x1p-126f)
+      lost += double(bound_code_value(255)) *
+              std::abs(double(bound_weight) -
+                       std::abs(double(w)) * double(term.tree.scales().bound_scale));
+    if (bound_weight < 0x1p-95f) lost += 0x1p-150;
   }
+  if (lost > 0) out.bound_slack = std::nextafter(float(lost), INFINITY);
   return out;
 }
 
@@ -120,7 +135,7 @@ void read_node(const ScaledTerm& term, int n, int channels, WeightedNode& out) {
     }
     out.value[c] = value;
     out.magnitude[c] = magnitude;
-    out.bound[c] = bound;
+    out.bound[c] = _mm_add_ps(bound, _mm_set1_ps(term.bound_slack));
   }
 }
 
@@ -243,10 +258,8 @@ std::vector<FoldedNode> fold_nodes(std::span<const WeightedTerm> weighted, int c
 
 // The fold's nodes packed (packed_tree.h: two groups of halves, l2 bound codes for both): values
 // to the nearest half, half magnitudes rounded up, the live bounds plus how far their value
-// moved, every bound plus `bound_slack` (what the terms' weighted bounds lost below the normal
-// floats) rounded up to its code.
-PackedTree pack_folded(const std::vector<FoldedNode>& nodes, int resolution, int channels,
-                       float bound_slack) {
+// moved, every bound rounded up to its code.
+PackedTree pack_folded(const std::vector<FoldedNode>& nodes, int resolution, int channels) {
   PackedTree out;
   out.shape = {resolution, channels, 2, BoundKind::l2, 2};
   out.texel_start = nodes.size();
@@ -278,11 +291,9 @@ PackedTree pack_folded(const std::vector<FoldedNode>& nodes, int resolution, int
       _mm_storel_epi64(reinterpret_cast<__m128i*>(w + 1 + 2 * (channels + c)), magnitude);
       const __m128 moved =
           _mm_mul_ps(abs_lanes(_mm_sub_ps(_mm_cvtph_ps(value), scaled)), from_half);
-      const __m128 slack = _mm_set1_ps(bound_slack);
-      const __m128 live = _mm_mul_ps(_mm_add_ps(_mm_add_ps(nodes[n].live[c], moved), slack),
-                                     _mm_set1_ps(1 + 0x1p-20f));
-      const __m128 stopped =
-          _mm_mul_ps(_mm_add_ps(nodes[n].stopped[c], slack), _mm_set1_ps(1 + 0x1p-20f));
+      const __m128 live =
+          _mm_mul_ps(_mm_add_ps(nodes[n].live[c], moved), _mm_set1_ps(1 + 0x1p-20f));
+      const __m128 stopped = _mm_mul_ps(nodes[n].stopped[c], _mm_set1_ps(1 + 0x1p-20f));
       _mm_storeu_ps(bounds[n * std::size_t(2 * channels) + std::size_t(c)].data(), live);
       _mm_storeu_ps(bounds[n * std::size_t(2 * channels) + std::size_t(channels + c)].data(),
                     stopped);
@@ -314,30 +325,22 @@ FoldedTree fold(std::span<const WeightedTerm> terms) {
   for (const WeightedTerm& t : terms)
     if (t.tree.shape().channels == 3) channels = 3;
   const int resolution = terms.front().tree.shape().resolution;
-  // What read_node's float products lose below the normal floats, which no relative term covers.
-  // Values: a weight times the value scale that is subnormal is off by up to 2^-150 (times a half
-  // of at most 65504), and products that can be subnormal (the weight under 2^-102, the smallest
-  // half 2^-24) by up to 2^-150 each. Bounds likewise: a subnormal weight times the bound scale
-  // (times a code of at most bound_code_value(255)), and products under a weight below 2^-95
-  // (the smallest code 2^-31). Nothing in the normal floats.
-  double lost_values = 0, lost_bounds = 0;
+  // What read_node's float products lose below the normal floats, which no relative term
+  // covers (the bounds' share is each term's bound_slack): a weight times the value scale that is
+  // subnormal is off by up to 2^-150, times a half of at most 65504, and products that can be
+  // subnormal (the weight under 2^-102, the smallest half 2^-24) by up to 2^-150 each. A weight
+  // times a value scale (a power of two) that is normal is exact, and nothing is lost.
+  double lost_values = 0;
   for (const WeightedTerm& t : terms)
     for (int g = 0; g < t.groups; ++g) {
       const float w = t.weights[std::size_t(g)];
+      if (w == 0) continue;  // its products are zeros, exactly
       const double value_weight = double(w) * double(t.tree.scales().value_scale);
-      const double bound_weight = std::abs(double(w)) * double(t.tree.scales().bound_scale);
-      // As scaled() rounds them.
+      // As scaled() rounds it.
       lost_values += 65504.0 * std::abs(double(w * t.tree.scales().value_scale) - value_weight) +
                      (std::abs(value_weight) < 0x1p-102 ? 0x1p-150 : 0);
-      lost_bounds +=
-          double(bound_code_value(255)) *
-              std::abs(double(std::abs(w) * t.tree.scales().bound_scale) - bound_weight) +
-          (bound_weight < 0x1p-95 ? 0x1p-150 : 0);
     }
-  const float bound_slack = std::nextafter(float(lost_bounds), INFINITY);
-  FoldedTree folded{pack_folded(fold_nodes(terms, channels), resolution, channels,
-                                lost_bounds > 0 ? bound_slack : 0),
-                    1};
+  FoldedTree folded{pack_folded(fold_nodes(terms, channels), resolution, channels), 1};
   // The terms' subnormal rounding, in the folded tree's value units (2^-25 value_scale), and what
   // the products lost, twice (their magnitudes, which the rounding terms take, lost as much).
   const double value_scale = folded.tree.scales.value_scale;

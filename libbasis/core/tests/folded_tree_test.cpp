@@ -184,8 +184,9 @@ TEST(FoldedTree, RoundingOfTermsSumAndLightStaysWithinTheBound) {
 // Weights and trees so small that the fold's float products fall below the normal floats, where
 // they lose bits that no relative rounding term covers: one weight, 1.5 x 2^-23, times a value
 // scale of 2^-126 lies halfway between two subnormals and rounds up by a third, and every value
-// with it. The folded convolution stays within its bound of the texels' product, for every
-// weight from 2^-149 to 1 against terms from 2^-120 to 1.
+// with it. The folded convolution stays within its bound of the texels' product, for weights
+// from 2^-149 to 0.7 against terms from 2^-120 to 1: one term of one group, and two terms, one
+// of two groups, whose losses add up and one of which stops where the other goes on.
 TEST(FoldedTree, WeightsAndScalesBelowTheNormalFloatsKeepTheBound) {
   const int n = 8;
   std::mt19937 rng(61);
@@ -194,32 +195,50 @@ TEST(FoldedTree, WeightsAndScalesBelowTheNormalFloatsKeepTheBound) {
   for (float& t : light.texels)
     t = unit(rng);
   const PackedTree b = pack(project(light, {.tolerance = 0}));
+  const ProjectionOptions both_groups{.tolerance = 0.1f, .cut_on_all_groups = true};
   int cases = 0;
   for (const float scale : {1.0f, 0x1p-112f, 0x1p-120f})
     for (const bool constant : {true, false}) {
-      Grid grid(n, 1);
-      for (float& t : grid.texels)
-        t = constant ? 1.5f * scale : unit(rng) * scale;
-      for (const float tolerance : {0.0f, 0.1f}) {
-        const PackedTree a = pack(project(grid, {.tolerance = tolerance}), BoundKind::l2);
-        for (const float w : {1.5f * 0x1p-23f, 0.7f, 1.3f * 0x1p-100f, 1.7f * 0x1p-130f,
-                              1.1f * 0x1p-143f, 0x1p-149f}) {
-          long double exact = 0;
-          for (std::size_t k = 0; k < grid.texels.size(); ++k)
-            exact += (long double)w * grid.texels[k] * light.texels[k];
-          exact /= n * n;
-          const std::vector<WeightedTerm> terms = {{a.view(), {w, 0, 0}, 1}};
-          const Convolution r = convolve(fold(terms), b.view());
-          EXPECT_LE(std::abs((long double)r.value[0] - exact), (long double)r.bound[0])
-              << "terms of 2^" << std::ilogb(scale) << (constant ? " (constant)" : "")
-              << ", tolerance " << tolerance << ", weight " << w << ": value " << r.value[0]
-              << ", exact " << double(exact);
-          ++cases;
+      Grid grid(n, 1, 2), other(n, 1);
+      for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+          grid.at(0, 0, x, y) = constant ? 1.5f * scale : unit(rng) * scale;
+          grid.at(1, 0, x, y) = unit(rng) * scale;
+          // Constant but for one quadrant: a term that stops where the other goes on.
+          other.at(0, 0, x, y) = (x < n / 2 && y < n / 2 ? unit(rng) : 1.25f) * scale;
         }
+      for (const float tolerance : {0.0f, 0.1f}) {
+        const PackedTree a = pack(
+            project(grid, {.tolerance = tolerance, .cut_on_all_groups = true}), BoundKind::l2, 2);
+        const PackedTree a2 = pack(project(other, both_groups), BoundKind::l2);
+        for (const float w : {1.5f * 0x1p-23f, 0.7f, 1.3f * 0x1p-100f, 1.7f * 0x1p-130f,
+                              1.1f * 0x1p-143f, 0x1p-149f})
+          for (const bool two_terms : {false, true}) {
+            const float w1 = two_terms ? w / 3 : 0, w2 = 0.6f * w;
+            long double exact = 0;
+            for (int y = 0; y < n; ++y)
+              for (int x = 0; x < n; ++x) {
+                long double f = (long double)w * grid.at(0, 0, x, y);
+                if (two_terms)
+                  f += (long double)w1 * grid.at(1, 0, x, y) +
+                       (long double)w2 * other.at(0, 0, x, y);
+                exact += f * light.at(0, 0, x, y);
+              }
+            exact /= n * n;
+            std::vector<WeightedTerm> terms = {{a.view(), {w, w1, 0}, two_terms ? 2 : 1}};
+            if (two_terms) terms.push_back({a2.view(), {w2, 0, 0}, 1});
+            const Convolution r = convolve(fold(terms), b.view());
+            EXPECT_LE(std::abs((long double)r.value[0] - exact), (long double)r.bound[0])
+                << "terms of 2^" << std::ilogb(scale) << (constant ? " (constant)" : "")
+                << ", tolerance " << tolerance << ", weight " << w
+                << (two_terms ? ", two terms" : "") << ": value " << r.value[0] << ", exact "
+                << double(exact);
+            ++cases;
+          }
       }
     }
-  EXPECT_EQ(cases, 72);
-  // The case that shows the loss: the folded value a third above the product.
+  EXPECT_EQ(cases, 144);
+  // The loss the bound now counts: the folded value a third above the product.
   Grid grid(n, 1);
   for (float& t : grid.texels)
     t = 1.5f * 0x1p-112f;
@@ -229,9 +248,7 @@ TEST(FoldedTree, WeightsAndScalesBelowTheNormalFloatsKeepTheBound) {
   for (const float t : light.texels)
     exact += (long double)(1.5f * 0x1p-23f) * (1.5f * 0x1p-112f) * t;
   exact /= n * n;
-  const Convolution r = convolve(fold(terms), b.view());
-  EXPECT_GT(std::abs((long double)r.value[0] - exact), exact / 4);
-  EXPECT_LE(std::abs((long double)r.value[0] - exact), (long double)r.bound[0]);
+  EXPECT_GT(std::abs((long double)convolve(fold(terms), b.view()).value[0] - exact), exact / 4);
 }
 
 // The smallest trees that fill a fold's queue at once: four terms of two nodes each (the root and
