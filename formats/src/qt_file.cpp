@@ -905,7 +905,8 @@ std::vector<std::byte> encode_capture_set(const CaptureSetView& captures,
 
 bool seal_qt_checksum(std::span<std::byte> bytes) {
   const auto* data = reinterpret_cast<const std::uint8_t*>(bytes.data());
-  if (bytes.size() < 8 || !fb::FileBufferHasIdentifier(data)) return false;
+  if (bytes.size() < 8 || bytes.size() > kQtMaxFileBytes || !fb::FileBufferHasIdentifier(data))
+    return false;
   flatbuffers::Verifier verifier(data, bytes.size());
   if (!fb::VerifyFileBuffer(verifier)) return false;
   const fb::Checksum* stored = fb::GetFile(data)->checksum();

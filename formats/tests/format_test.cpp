@@ -548,6 +548,21 @@ TEST(QtFormat, ChecksumRefusesEveryChangedByte) {
 
 TEST(QtFormat, ForeignEmptyAndFutureFilesAreRejected) {
   TempDir dir;
+  // A file one byte past the largest buffer the FlatBuffers verifier takes, with the identifier
+  // that leads to it, is refused by its size before it is mapped (a sparse file: no disk used).
+  {
+    const std::string huge = dir.path() + "/huge.qt";
+    std::ofstream(huge, std::ios::binary) << std::string("\0\0\0\0BQTF", 8);
+    std::filesystem::resize_file(huge, kQtMaxFileBytes + 1);
+    ASSERT_EQ(kQtMaxFileBytes + 1, (std::uint64_t(1) << 31) - 1);
+    try {
+      QtFile::load(huge);
+      ADD_FAILURE() << "a file past the format's limit loaded";
+    } catch (const FileError& e) {
+      EXPECT_EQ(std::string(e.what()),
+                huge + ": file of 2147483647 bytes exceeds the 2 GiB format limit");
+    }
+  }
   EXPECT_EQ(load_error({}), "input.qt: empty file, not a .qt file");
   const std::string png = "\x89PNG\r\n\x1a\n\0\0\0\rIHDR";
   EXPECT_EQ(load_error(std::as_bytes(std::span(png.data(), png.size()))),

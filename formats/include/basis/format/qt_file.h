@@ -31,7 +31,8 @@ namespace basis {
 inline constexpr std::uint32_t kQtFormatVersion = 8;
 
 // Limits checked before anything is allocated from a file's claims.
-inline constexpr std::uint64_t kQtMaxFileBytes = (std::uint64_t(1) << 31) - 1;  // FlatBuffers
+// FlatBuffers verifies buffers of fewer than 2^31 - 1 bytes.
+inline constexpr std::uint64_t kQtMaxFileBytes = (std::uint64_t(1) << 31) - 2;
 inline constexpr int kQtMaxWoResolution = 256;
 
 enum class QtKind { tree, brdf_table, capture_set };
