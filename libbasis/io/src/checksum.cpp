@@ -39,19 +39,21 @@ class Xxh128 {
     std::memcpy(bytes.data(), canonical.digest, bytes.size());
     return bytes;
   }
-  std::string hex() const {
-    static constexpr char kHex[] = "0123456789abcdef";
-    std::string text;
-    for (const std::byte byte : canonical_bytes()) {
-      text += kHex[unsigned(byte) >> 4];
-      text += kHex[unsigned(byte) & 15];
-    }
-    return text;
-  }
 
  private:
   std::unique_ptr<XXH3_state_t, XXH_errorcode (*)(XXH3_state_t*)> state_;
 };
+
+// A checksum's canonical bytes as the lowercase hex digits xxh128sum prints.
+std::string hex_of(const std::array<std::byte, 16>& bytes) {
+  static constexpr char kHex[] = "0123456789abcdef";
+  std::string text;
+  for (const std::byte byte : bytes) {
+    text += kHex[unsigned(byte) >> 4];
+    text += kHex[unsigned(byte) & 15];
+  }
+  return text;
+}
 
 }  // namespace
 
@@ -62,16 +64,11 @@ bool is_checksum_text(const std::string& text) {
 }
 
 std::string checksum_hex(std::span<const std::byte> bytes) {
-  Xxh128 hash;
-  hash.update(bytes.data(), bytes.size());
-  return hash.hex();
+  return hex_of(pieces_checksum_bytes({bytes}));
 }
 
 std::string pieces_checksum_hex(std::initializer_list<std::span<const std::byte>> pieces) {
-  Xxh128 hash;
-  for (const std::span<const std::byte> piece : pieces)
-    hash.update(piece.data(), piece.size());
-  return hash.hex();
+  return hex_of(pieces_checksum_bytes(pieces));
 }
 
 std::array<std::byte, 16> pieces_checksum_bytes(
@@ -92,7 +89,7 @@ std::string file_checksum_hex(const std::string& path) {
     hash.update(buffer.data(), std::size_t(in.gcount()));
   }
   if (in.bad()) throw FileError(path + ": cannot read");
-  return hash.hex();
+  return hex_of(hash.canonical_bytes());
 }
 
 std::string checksum_path(const std::string& path) {
