@@ -132,6 +132,8 @@ std::string path_of(const py::object& path, const std::string& what) {
   const std::string s = encoded;
   if (s.find('\0') != std::string::npos)
     throw std::invalid_argument(what + " contains a NUL character");
+  // An empty path names no file (an unset variable, most often): never "no scene" or the like.
+  if (s.empty()) throw std::invalid_argument(what + " is empty: it names no file");
   return s;
 }
 
@@ -319,6 +321,19 @@ void warn_each(const std::vector<std::string>& lines) {
 
 // Raises `type` with `message`, whose bytes that are not UTF-8 (a file's own, quoted in a
 // parse error) are escaped rather than losing the whole message.
+// Objects of the module's classes are made by its functions. A bare Class.__new__(Class), which
+// generic copying code may call, would give one whose C++ value was never made: it raises.
+void refuse_bare_new(const py::object& cls) {
+  const std::string name = py::str(cls.attr("__name__"));
+  cls.attr("__new__") = py::staticmethod(py::cpp_function(
+      [name](const py::args&, const py::kwargs&) -> py::object {
+        throw py::type_error("basis." + name +
+                             " objects are made by the module's functions (load, project, "
+                             "tabulate, capture, Brdf.from_json, ...), not directly");
+      },
+      py::name("__new__")));
+}
+
 void set_python_error(PyObject* type, const char* message) {
   PyObject* text =
       PyUnicode_DecodeUTF8(message, Py_ssize_t(std::strlen(message)), "backslashreplace");
@@ -348,8 +363,8 @@ PYBIND11_MODULE(basis, m) {
       set_python_error(PyExc_ValueError, e.what());
     } catch (const std::overflow_error& e) {
       set_python_error(PyExc_OverflowError, e.what());
-    } catch (const std::length_error& e) {
-      set_python_error(PyExc_MemoryError, e.what());
+    } catch (const std::length_error& e) {  // a size past the format's limits, not memory
+      set_python_error(PyExc_ValueError, e.what());
     }
   });
 
@@ -737,12 +752,17 @@ PYBIND11_MODULE(basis, m) {
       "Reflected radiance towards wo (pi included) of one radiance tree, and its bound (inf with "
       "bound=False: the same value, faster). A capture's tree leaves out the compact lights the "
       "capture keeps apart (Captures.lights): shade() adds them. Hermite interpolation needs "
-      "the table's derivatives over wo; without them (has_wo_derivatives) lookups are bilinear.");
+      "the table's derivatives over wo; without them (has_wo_derivatives) lookups are bilinear. "
+      "Between entries it descends each entry around wo on its own, where shade() and "
+      "qtconvolve fold them into one tree once for their batch: the values then differ by the "
+      "folded sum's rounding (about 1e-5 relative) and the bounds by its rounding up, each "
+      "holding.");
 
   m.def(
       "reflect_tilted",
       [](const Table& table, const Tree& radiance, const std::array<double, 3>& wo,
-         const std::array<double, 2>& tilt, const std::string& mode) {
+         const std::array<double, 2>& tilt, const std::string& mode, double accuracy,
+         const std::string& interpolation, bool bound) {
         const TiltCompensation compensation =
             mode == "none"             ? TiltCompensation::none
             : mode == "reparametrised" ? TiltCompensation::reparametrised
@@ -752,13 +772,16 @@ PYBIND11_MODULE(basis, m) {
                                                 "'compensated', got '" +
                                              mode + "'");
         return result(reflect_tilted(table.view, radiance.view, to_direction(to_vec3(wo), "wo"),
-                                     {tilt[0], tilt[1]}, compensation));
+                                     {tilt[0], tilt[1]}, compensation,
+                                     {{accuracy, bound}, interpolation_of(interpolation)}));
       },
       py::arg("table"), py::arg("radiance"), py::arg("wo"), py::arg("tilt"),
-      py::arg("mode") = "compensated",
+      py::arg("mode") = "compensated", py::arg("accuracy") = 0.0,
+      py::arg("interpolation") = "hermite", py::arg("bound") = true,
       "Reflected radiance at a surface tilted by the rotation vector tilt = (x, y) (radians, in "
       "the record's tangent plane) against the frame the radiance was recorded in; wo in the "
-      "tilted frame.");
+      "tilted frame. accuracy, interpolation and bound as reflect's (qtconvolve --normal with "
+      "--accuracy, --interpolation, --no-bound).");
 
   m.def(
       "shade",
@@ -923,6 +946,9 @@ PYBIND11_MODULE(basis, m) {
       py::arg("path"), py::arg("what"),
       "Writes a table, capture set or tree as a .qt file (atomically; verified as the reader "
       "verifies it).");
+
+  for (const char* name : {"Tree", "Table", "Captures", "File", "Brdf"})
+    refuse_bare_new(m.attr(name));
 }
 
 }  // namespace basis::python

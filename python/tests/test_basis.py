@@ -320,6 +320,57 @@ def test_arguments_are_checked_where_they_are_given(made_by_tools, tmp_path):
         basis.load(d / "phong.qt").tree()
 
 
+def test_tilted_lookups_take_reflects_options(made_by_tools):
+    """reflect_tilted takes accuracy, interpolation and bound as reflect does: untilted it is
+    reflect to the bit with each, without the bound the same values, and a targeted lookup's
+    certified interval meets the full one's."""
+    d, _ = made_by_tools
+    table = basis.load(d / "phong.qt").table()
+    tree = basis.load(d / "captures.qt").captures().tree(2)
+    wo = (0.3, 0.2, 0.93)
+    for options in ({}, {"accuracy": 0.1}, {"interpolation": "bilinear"}, {"bound": False}):
+        tilted = basis.reflect_tilted(table, tree, wo, (0, 0), **options)
+        plain = basis.reflect(table, tree, wo, **options)
+        np.testing.assert_array_equal(tilted[0], plain[0], err_msg=str(options))
+        np.testing.assert_array_equal(tilted[1], plain[1], err_msg=str(options))
+    tilt = (0.08, -0.05)
+    full_value, full_bound = basis.reflect_tilted(table, tree, wo, tilt)
+    alone, inf = basis.reflect_tilted(table, tree, wo, tilt, bound=False)
+    np.testing.assert_array_equal(alone, full_value)
+    assert np.all(np.isinf(inf))
+    targeted, targeted_bound = basis.reflect_tilted(table, tree, wo, tilt, accuracy=0.1)
+    assert np.all(np.abs(targeted - full_value) <= targeted_bound + full_bound)
+    bilinear, _ = basis.reflect_tilted(table, tree, wo, tilt, interpolation="bilinear")
+    assert not np.array_equal(bilinear, full_value)
+    with pytest.raises(ValueError, match="accuracy"):
+        basis.reflect_tilted(table, tree, wo, tilt, accuracy=2)
+
+
+def test_objects_come_from_the_modules_functions_only():
+    """A bare Class.__new__(Class), as generic copying code may call, gave an object whose C++
+    value was never made: reading it printed garbage or crashed the interpreter."""
+    for cls in (basis.Tree, basis.Table, basis.Captures, basis.File, basis.Brdf):
+        with pytest.raises(TypeError, match="made by the module's functions"):
+            cls.__new__(cls)
+        with pytest.raises(TypeError, match="made by the module's functions"):
+            cls()
+    tree = basis.project(np.ones((8, 8), np.float32))  # the functions still make them
+    assert tree.node_count == 1 and isinstance(tree, basis.Tree)
+
+
+def test_empty_paths_name_no_file(tmp_path):
+    """An empty path (an unset variable, most often) is refused: capture(scene="") traced with no
+    scene at all, silently."""
+    point, normal = np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]])
+    for call in (lambda: basis.capture(point, normal, constant=(1, 1, 1), scene="", res=8),
+                 lambda: basis.capture(point, normal, env="", res=8),
+                 lambda: basis.load(""),
+                 lambda: basis.Brdf.from_file(b""),
+                 lambda: basis.write("", basis.project(np.ones((8, 8), np.float32)))):
+        with pytest.raises(ValueError, match="is empty: it names no file"):
+            call()
+
+
 def test_messages_keep_their_file_names_whatever_the_bytes(tmp_path):
     (tmp_path / "bin.json").write_bytes(b'{"model": "phong", "\xff": 1}')
     with pytest.raises(basis.Error, match="bin.json"):

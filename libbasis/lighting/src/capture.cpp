@@ -312,8 +312,8 @@ CaptureSet capture_set(const Environment& environment, const RayScene* scene,
   if (stop) throw Cancelled();
   if (too_large)
     throw std::length_error("the captures grow beyond " + std::to_string(options.max_bytes >> 20) +
-                            " MiB (the limit of one .qt file): capture fewer points per file, "
-                            "lower --res or raise the tolerance");
+                            " MiB (the limit of one .qt file): capture fewer points per file, at a "
+                            "lower resolution, or raise the tolerance");
   const bool lights_apart = options.capture.compact_lights == CaptureOptions::CompactLights::apart;
   CaptureSet set;
   set.trees = TreeSet(trees.front().shape);
