@@ -388,6 +388,14 @@ TEST(BadInputMatrix, UnwritableOutputs) {
     check(dir, "qtinfo", {{"ok.qt", "--png", out}, 1, out});
     check(dir, "qtconvolve", {{"ok.qt", "cap.qt", "--png", out}, 1, out});
   }
+  // Images on a full disk, which a link to the full device stands for: the PNG and EXR writers
+  // did not report the failed writes, and a cut image was put in place with exit 0 (EXRs: in
+  // QtrenderCli).
+  std::filesystem::create_symlink("/dev/full", dir.file("full.png"));
+  const std::string problem = "full.png: No space left on device";
+  check(dir, "qtinfo", {{"ok.qt", "--png", "full.png"}, 1, problem});
+  check(dir, "qtinfo", {{"cap.qt", "--png", "full.png"}, 1, problem});
+  check(dir, "qtconvolve", {{"ok.qt", "cap.qt", "--png", "full.png"}, 1, problem});
 }
 
 // Results printed to a standard output that cannot take them (a full device) are an error

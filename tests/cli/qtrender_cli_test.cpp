@@ -166,6 +166,14 @@ TEST(QtrenderCli, BadScenesGetOneLineAndNoImage) {
   EXPECT_FALSE(std::filesystem::exists(dir.file("good.exr")));
   for (const auto& entry : std::filesystem::directory_iterator(dir.path()))
     EXPECT_EQ(entry.path().filename().string().find(".partial"), std::string::npos) << entry.path();
+  // An image on a full disk, which a link to the full device stands for: the EXR writer did not
+  // report the failed write, and the image was put in place cut, with exit 0.
+  std::filesystem::create_symlink("/dev/full", dir.file("full.exr"));
+  const auto full = run_tool("qtrender", {dir.file("good.json"), "-o", dir.file("full.exr"),
+                                          "--method", "mc", "--spp", "1"});
+  EXPECT_EQ(full.status, 1) << full.err;
+  EXPECT_NE(full.err.find("full.exr: No space left on device"), std::string::npos) << full.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("full.png")));
   // A missing folder is named as the output, not as a temporary.
   const auto missing = run_tool("qtrender", {dir.file("good.json"), "-o", dir.file("no/such/o.exr"),
                                              "--method", "mc", "--spp", "1"});
