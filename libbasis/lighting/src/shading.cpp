@@ -11,6 +11,7 @@
 #include "basis/core/dense.h"
 #include "basis/core/gradual_underflow.h"
 #include "basis/core/hemisphere.h"
+#include "basis/core/parabolic.h"
 
 namespace basis {
 
@@ -33,7 +34,10 @@ namespace {
 
 // Adds f(wi, wo) E wi.z for each light, turned from the record's frame into the shading frame
 // when both are given; lights below the shading horizon drop out. f is light_brdf at wi when
-// given, else what table_f(wi, f, error) adds up (with its error bound).
+// given, else what table_f(wi, f, error) adds up (with its error bound). light_brdf is taken at
+// the direction the table's entries stand for (table_outgoing: wo, pulled to at most
+// kTableMaxOutgoingDegrees from the normal), as the table's part of the lookup is: at the
+// horizon itself, where f is 0, it lost the lights that a wo a hair above it kept.
 template <typename TableF>
 void add_lights(std::span<const DirectionalLight> lights, const std::optional<Frame>& record,
                 const std::optional<Frame>& shading, const Vec3& wo, const Brdf* light_brdf,
@@ -46,13 +50,15 @@ void add_lights(std::span<const DirectionalLight> lights, const std::optional<Fr
     value[c] = result.value[c];
     bound[c] = result.bound[c];
   }
+  const double lowest_z = std::cos(kTableMaxOutgoingDegrees * std::numbers::pi / 180);
+  const Vec3 wo_f = wo.z() >= lowest_z ? wo : table_outgoing(hemisphere_to_parabolic(wo));
   for (const DirectionalLight& light : lights) {
     Vec3 wi = light.direction;
     if (shading) wi = shading->to_local(record->to_world(wi));
     if (!(wi.z() > 0)) continue;
     Color f{0, 0, 0}, error{0, 0, 0};
     if (light_brdf)
-      f = evaluate(*light_brdf, wi, wo);
+      f = evaluate(*light_brdf, wi, wo_f);
     else
       table_f(wi, f, error);
     for (int c = 0; c < 3; ++c) {

@@ -553,6 +553,42 @@ TEST(Capture, LightsKeptApartCarryWhatTheTexelsWouldHold) {
   }
 }
 
+// A lookup exactly at the horizon keeps the lights that one a hair above it keeps: their f is
+// taken at the direction the table's entries stand for (89 degrees from the normal), as the
+// table's part is. It was taken at wo itself, where f is 0, and the suns were lost; through a
+// white Lambert table they are most of the light.
+TEST(Capture, LookupsAtTheHorizonKeepTheLights) {
+  BrdfTableOptions o;
+  o.wo_resolution = 5;
+  o.wi_resolution = 16;
+  o.tilt_derivatives = false;
+  const Brdf white = Lambert{{1, 1, 1}};
+  const BrdfTable table = tabulate_brdf(white, o);
+  const std::vector<SurfacePoint> points = {{Vec3::Zero(), Vec3::UnitZ()}};
+  CaptureSetOptions options;
+  options.capture.resolution = 32;
+  options.capture.compact_lights = CaptureOptions::CompactLights::apart;
+  const CaptureSet set = capture_set(Environment(two_suns_and_a_patch()), nullptr, points, options);
+  ASSERT_EQ(set.view().lights_of(0).size(), 2u);
+  const Convolution sky_alone = reflect(table.view(), set.view().trees.tree(0), Vec3::UnitZ());
+  for (const Vec3& horizon : {Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(-0.6, 0.8, 0)})
+    for (const Brdf* light_brdf : {&white, static_cast<const Brdf*>(nullptr)}) {
+      ShadingOptions at, above;
+      at.wo = horizon;
+      above.wo = horizon + Vec3(0, 0, 1e-9);
+      at.light_brdf = above.light_brdf = light_brdf;
+      const Convolution lo_at = shade(table.view(), set.view(), 0, at);
+      const Convolution lo_above = shade(table.view(), set.view(), 0, above);
+      for (int c = 0; c < 3; ++c) {
+        // The suns are most of it: far more than the sky's share and the bounds.
+        EXPECT_GT(lo_above.value[c], 2 * sky_alone.value[c]) << horizon.transpose();
+        EXPECT_NEAR(lo_at.value[c], lo_above.value[c],
+                    lo_at.bound[c] + lo_above.bound[c] + 1e-6 * lo_above.value[c])
+            << horizon.transpose() << (light_brdf ? ", f from the BRDF" : ", f from the table");
+      }
+    }
+}
+
 // Products of captures whose lights are kept apart against the product of their full texel
 // grids with the lights splatted in (both captured here), within the certified bound, in full
 // and with an accuracy target; without the bound, the full descent's values.
