@@ -338,8 +338,12 @@ int main(int argc, char** argv) {
     if (mesh)
       for (const std::string& file : mesh->material_files)
         inputs.push_back({"--scene", file, "a material file " + scene_path + " names"});
-    basis::cli::check_outputs_spare_inputs({{"-o", output}}, inputs);
+    // A shard's checksum file beside it is an output too.
+    const std::string checksum = shard_text.empty() ? "" : basis::checksum_path(output);
+    basis::cli::check_outputs_spare_inputs({{"-o", output}, {"the checksum of -o", checksum}},
+                                           inputs);
     basis::cli::check_output_place(output);
+    basis::cli::check_output_place(checksum);
     DumpedImages dumped;
     if (!dump.empty()) {
       if (!std::filesystem::is_directory(dump))

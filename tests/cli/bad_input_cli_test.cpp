@@ -458,6 +458,22 @@ TEST(BadInputMatrix, OutputsThatWouldDestroyAnInputAreRefused) {
         {{"--env-constant", "1,1,1", "--points", "ok.json", "-o", "ok.json"},
          2,
          "the file --points reads"});
+  // And the checksum a shard run writes beside its output is an output: an input of that name
+  // (a scene, a points file) was overwritten, and a folder of that name replaced.
+  write_text(dir.file("points.qt.xxh128"), "0,0,0,0,0,1\n");
+  const std::string points = testing::slurp(dir.file("points.qt.xxh128"));
+  check(dir, "capture2qt",
+        {{"--env-constant", "1,1,1", "--points", "points.qt.xxh128", "--res", "8", "--shard", "0/1",
+          "-o", "points.qt"},
+         2,
+         "the checksum of -o points.qt.xxh128 is the file --points reads"});
+  EXPECT_EQ(testing::slurp(dir.file("points.qt.xxh128")), points);
+  std::filesystem::create_directory(dir.file("held.qt.xxh128"));
+  check(dir, "capture2qt",
+        {{"--env-constant", "1,1,1", "--at", "0,0,0", "--res", "8", "--shard", "0/1", "-o",
+          "held.qt"},
+         1,
+         "held.qt.xxh128: is a folder"});
   // A manifest's shards are inputs too.
   ASSERT_EQ(run_tool("qtmerge", {"shard.0.qt", "--manifest", "m.qtm", "-q"}, dir.path()).status, 0);
   const std::string shard = testing::slurp(dir.file("shard.0.qt"));
