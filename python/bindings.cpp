@@ -729,7 +729,7 @@ PYBIND11_MODULE(basis, m) {
         Table out = own(std::move(table), options.projection);
         out.brdf = b.spec.brdf;
         out.source = b.source;
-        out.parameters = table_parameters(options);
+        out.parameters = table_parameters(options, b.spec.brdf);
         return out;
       },
       py::arg("brdf"), py::arg("wo_res") = py::none(), py::arg("wi_res") = py::none(),

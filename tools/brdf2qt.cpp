@@ -111,7 +111,7 @@ int main(int argc, char** argv) {
 
     const auto bytes = basis::encode_brdf_table(
         table.view(), spec.model, spec.text, options.projection,
-        {"brdf2qt", basis::kVersion, basis::table_parameters(options), {spec_path}});
+        {"brdf2qt", basis::kVersion, basis::table_parameters(options, spec.brdf), {spec_path}});
     basis::write_qt(output, bytes);
     if (quiet && !json) return;
     const std::size_t nodes = table.trees.view().total_nodes();

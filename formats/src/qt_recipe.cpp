@@ -1,4 +1,5 @@
 #include "basis/format/qt_recipe.h"
+#include "basis/brdf/measured.h"
 #include "basis/io/checksum.h"
 #include "basis/io/json_text.h"
 
@@ -17,6 +18,14 @@ BrdfSpec table_brdf(const QtFile& table) {
                                  ? std::string()
                                  : std::filesystem::path(p.sources[0]).parent_path().string();
   BrdfSpec parsed = parse_brdf_spec(spec, table.name() + " (stored spec)", folder);
+  // A measured BRDF's data file read now must be the one the table was made from: another
+  // would light the directional lights with other data than the table's texels hold.
+  const nlohmann::json parameters = nlohmann::json::parse(p.parameters, nullptr, false);
+  if (parameters.is_object() && parameters.contains("data_checksum") &&
+      parameters["data_checksum"] != brdf_data_checksum(parsed.brdf))
+    throw FileError(table.name() + ": the data file its spec names (" + parsed.data_file +
+                    ") has changed since the table was made from it (its checksum differs); "
+                    "make the table again with brdf2qt");
   // The spec answers for the table's directional lights: one that is not the table's BRDF
   // (a damaged file) would light them with another.
   const int channels = table.trees().shape().channels;
@@ -48,16 +57,18 @@ BrdfTableOptions table_options(const BrdfSpec& spec) {
   return options;
 }
 
-std::string table_parameters(const BrdfTableOptions& options) {
+std::string table_parameters(const BrdfTableOptions& options, const Brdf& brdf) {
   const bool absolute = options.projection.mode == ProjectionOptions::Mode::absolute;
-  const nlohmann::ordered_json j = {{"wo_res", options.wo_resolution},
-                                    {"wi_res", options.wi_resolution},
-                                    {"tolerance", options.projection.tolerance},
-                                    {"tolerance_floor", options.projection.local_floor},
-                                    {"wo_derivatives", options.wo_derivatives},
-                                    {"mode", absolute ? "absolute" : "relative"},
-                                    {"tilt_derivatives", options.tilt_derivatives},
-                                    {"bounds", options.bounds == BoundKind::linf ? "linf" : "l2"}};
+  nlohmann::ordered_json j = {{"wo_res", options.wo_resolution},
+                              {"wi_res", options.wi_resolution},
+                              {"tolerance", options.projection.tolerance},
+                              {"tolerance_floor", options.projection.local_floor},
+                              {"wo_derivatives", options.wo_derivatives},
+                              {"mode", absolute ? "absolute" : "relative"},
+                              {"tilt_derivatives", options.tilt_derivatives},
+                              {"bounds", options.bounds == BoundKind::linf ? "linf" : "l2"}};
+  const std::string data_checksum = brdf_data_checksum(brdf);
+  if (!data_checksum.empty()) j["data_checksum"] = data_checksum;
   return json_text(j);
 }
 

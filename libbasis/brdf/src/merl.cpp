@@ -10,6 +10,7 @@
 
 #include "basis/core/file_error.h"
 #include "basis/core/hemisphere.h"
+#include "basis/io/checksum.h"
 
 namespace basis {
 
@@ -70,7 +71,9 @@ std::shared_ptr<const MerlBrdf> MerlBrdf::parse(std::span<const unsigned char> b
     if (s > kLargestSample)
       throw FileError(name + ": MERL samples above 1e30, beyond what a table of floats holds");
   }
-  return std::make_shared<const MerlBrdf>(std::move(samples));
+  auto brdf = std::make_shared<MerlBrdf>(std::move(samples));
+  brdf->data_checksum_ = checksum_hex(std::as_bytes(bytes));
+  return brdf;
 }
 
 MerlBrdf::HalfDiff MerlBrdf::to_half_diff(const Vec3& wi, const Vec3& wo) {

@@ -15,6 +15,7 @@
 
 #include "basis/core/file_error.h"
 #include "basis/core/hemisphere.h"
+#include "basis/io/checksum.h"
 #include "tensor_file.h"
 #include "warp2d.h"
 
@@ -128,6 +129,7 @@ std::shared_ptr<const RglBrdf> RglBrdf::parse(std::vector<unsigned char> bytes,
   if (bytes.size() > kMaxFileSize)
     throw FileError(path + ": too large for an RGL BRDF (" + std::to_string(bytes.size()) +
                     " bytes)");
+  const std::string checksum = checksum_hex(std::as_bytes(std::span(bytes)));
   const TensorFile file(path, std::move(bytes));
   if (file.has("wavelengths") || file.has("spectra"))
     file.fail("spectral files are not supported (only RGB files with an 'rgb' field)");
@@ -234,7 +236,9 @@ std::shared_ptr<const RglBrdf> RglBrdf::parse(std::vector<unsigned char> bytes,
   tables->jacobian = file.octets(jacobian_field)[0] != 0;
   // 'valid' and 'version' are not used by the reference evaluation; their bounds were checked.
 
-  return std::shared_ptr<const RglBrdf>(new RglBrdf(std::move(tables)));
+  std::shared_ptr<RglBrdf> brdf(new RglBrdf(std::move(tables)));
+  brdf->data_checksum_ = checksum;
+  return brdf;
 }
 
 std::string RglBrdf::description() const {

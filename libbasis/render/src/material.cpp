@@ -22,7 +22,7 @@ std::shared_ptr<const QtFile> valid_cache(const std::string& cache, const BrdfSp
   try {
     auto file = std::make_shared<QtFile>(QtFile::load(cache));
     if (file->kind() != QtKind::brdf_table || file->brdf_spec() != spec.text ||
-        file->provenance().parameters != table_parameters(options))
+        file->provenance().parameters != table_parameters(options, spec.brdf))
       return nullptr;
     return file;
   } catch (const FileError&) {
@@ -64,8 +64,9 @@ Material load_material(const std::string& path, bool with_table, const TaskContr
   material.table = valid_cache(cache, spec, options);
   if (material.table) return material;
   const BrdfTable table = tabulate_brdf(spec.brdf, options, control);
-  const auto bytes = encode_brdf_table(table.view(), spec.model, spec.text, options.projection,
-                                       {"qtrender", kVersion, table_parameters(options), {path}});
+  const auto bytes =
+      encode_brdf_table(table.view(), spec.model, spec.text, options.projection,
+                        {"qtrender", kVersion, table_parameters(options, spec.brdf), {path}});
   MaterialReport r{true, false, {}};
   if (!replaceable_cache(cache)) {
     r.cache_problem =

@@ -15,7 +15,9 @@
 namespace basis {
 
 // The BRDF of a table file, parsed from the spec it stores (data files such as MERL binaries
-// are found relative to the spec's original folder). Throws FileError.
+// are found relative to the spec's original folder). Throws FileError, also when the data file
+// is not the one the table was made from (its checksum, recorded in the provenance's parameters
+// as data_checksum, differs).
 BrdfSpec table_brdf(const QtFile& table);
 
 // The options brdf2qt tabulates a spec with by default: BrdfTableOptions' defaults, the outgoing
@@ -23,8 +25,9 @@ BrdfSpec table_brdf(const QtFile& table);
 BrdfTableOptions table_options(const BrdfSpec& spec);
 
 // The options a table was tabulated with, as the parameters (JSON text) of its provenance:
-// wo_res, wi_res, tolerance, tolerance_floor, wo_derivatives, mode, tilt_derivatives, bounds.
-std::string table_parameters(const BrdfTableOptions& options);
+// wo_res, wi_res, tolerance, tolerance_floor, wo_derivatives, mode, tilt_derivatives, bounds,
+// and for a measured BRDF the checksum of its data file (brdf_data_checksum) as data_checksum.
+std::string table_parameters(const BrdfTableOptions& options, const Brdf& brdf);
 
 // Which part of a sharded run a capture set holds (capture2qt --shard): shard `shard` of a run
 // of `total_points` points, whose captures are the run's points shard_range(total_points, shard).

@@ -1,7 +1,9 @@
 // Measured BRDFs: a common interface for tabulated data (the MERL format and others).
 #pragma once
 
+#include <memory>
 #include <string>
+#include <variant>
 
 #include "basis/brdf/brdf.h"
 
@@ -16,6 +18,18 @@ class MeasuredBrdf {
   // "merl" or "rgl".
   virtual std::string format() const = 0;
   virtual int channels() const { return 3; }
+  // The XXH3-128 (checksum.h's hex digits) of the file the data was read from, so that a table
+  // made from it can tell when the file has changed since; empty for data made in memory.
+  const std::string& data_checksum() const { return data_checksum_; }
+
+ protected:
+  std::string data_checksum_;
 };
+
+// The data checksum of a measured BRDF (MeasuredBrdf::data_checksum), empty for analytic ones.
+inline std::string brdf_data_checksum(const Brdf& brdf) {
+  const auto* measured = std::get_if<std::shared_ptr<const MeasuredBrdf>>(&brdf);
+  return measured && *measured ? (*measured)->data_checksum() : std::string();
+}
 
 }  // namespace basis
