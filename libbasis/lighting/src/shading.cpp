@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <numbers>
 #include <optional>
@@ -202,29 +203,33 @@ Convolution capture_product(const CaptureSetView& a, const CaptureSetView& b, st
   }
   const auto la = a.lights_of(ka), lb = b.lights_of(kb);
   if (la.empty() && lb.empty()) return certified_convolution(value, bound);
-  const int n = ta.shape().resolution;
-  if (tb.shape().resolution != n)
-    throw std::invalid_argument("captures with directional lights multiply at one resolution");
-  // A light stands for energy * cos / (pi * texel area) over the texel it falls in.
+  // A light stands for energy * cos / (pi * texel area) over the texel it falls in at its own
+  // capture's resolution (as splat_lights splats it); the captures' resolutions may differ.
   struct Splat {
-    int x, y;
+    int x, y, resolution;
     Color weight;  // energy * cos
   };
-  auto splats = [&](std::span<const DirectionalLight> lights) {
+  auto splats = [&](std::span<const DirectionalLight> lights, int n) {
     std::vector<Splat> out;
     for (const DirectionalLight& l : lights) {
       const auto [x, y] = cosine_hemisphere_texel(l.direction, n);
       out.push_back({x,
                      y,
+                     n,
                      {l.energy[0] * l.direction.z(), l.energy[1] * l.direction.z(),
                       l.energy[2] * l.direction.z()}});
     }
     return out;
   };
-  const std::vector<Splat> sa = splats(la), sb = splats(lb);
+  const std::vector<Splat> sa = splats(la, ta.shape().resolution),
+                           sb = splats(lb, tb.shape().resolution);
   auto against_tree = [&](const std::vector<Splat>& lights, const PackedTreeView& tree) {
     for (const Splat& s : lights) {
-      const LeafQuadrant leaf = find_leaf(tree, (s.x + 0.5) / n, (s.y + 0.5) / n);
+      // The other tree's quadrant over the light's texel, or its leaf holding that texel: its
+      // mean over the texel is the quadrant's value, within the quadrant's largest deviation.
+      const LeafQuadrant leaf =
+          find_leaf(tree, (s.x + 0.5) / s.resolution, (s.y + 0.5) / s.resolution,
+                    std::countr_zero(unsigned(s.resolution)));
       for (int c = 0; c < 3; ++c) {
         const int channel = std::min(c, tree.shape().channels - 1);
         value[c] += s.weight[c] * tree.value(leaf.node, 0, channel, leaf.quadrant);
@@ -235,11 +240,17 @@ Convolution capture_product(const CaptureSetView& a, const CaptureSetView& b, st
   };
   against_tree(sa, tb);
   against_tree(sb, ta);
+  // Two lights meet where the finer one's texel lies in the coarser one's: their product over
+  // it is weight * weight / (pi * the coarser texel's area).
   for (const Splat& p : sa)
-    for (const Splat& q : sb)
-      if (p.x == q.x && p.y == q.y)
+    for (const Splat& q : sb) {
+      const int coarse = std::min(p.resolution, q.resolution);
+      const int px = p.x / (p.resolution / coarse), py = p.y / (p.resolution / coarse);
+      const int qx = q.x / (q.resolution / coarse), qy = q.y / (q.resolution / coarse);
+      if (px == qx && py == qy)
         for (int c = 0; c < 3; ++c)
-          value[c] += p.weight[c] * q.weight[c] * double(n) * n / std::numbers::pi;
+          value[c] += p.weight[c] * q.weight[c] * double(coarse) * coarse / std::numbers::pi;
+    }
   return certified_convolution(value, bound);
 }
 

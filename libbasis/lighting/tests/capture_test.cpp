@@ -647,6 +647,40 @@ TEST(Capture, ProductsWithLightsStayWithinTheirBoundOfTheTexels) {
       EXPECT_EQ(alone.bound[c], std::numeric_limits<float>::infinity()) << k << " " << c;
     }
   }
+  // Captures at different resolutions multiply as the functions they are, each light splatted
+  // at its own capture's resolution: against the product of the grids, the coarser one's texels
+  // repeated over the finer one's (they were refused, whenever either held lights).
+  std::vector<Grid> fine_grids(points.size());
+  options.capture.resolution = 64;
+  options.capture.compact_lights = CaptureOptions::CompactLights::apart;
+  options.on_grid = [&](std::size_t k, const Grid& grid, std::span<const DirectionalLight> l) {
+    fine_grids[k] = grid;
+    splat_lights(l, fine_grids[k]);
+  };
+  const CaptureSet fine = capture_set(env, nullptr, points, options);
+  ASSERT_GT(fine.lights.size(), 0u);
+  auto across_resolutions = [](const Grid& coarse, const Grid& fine_grid, int c) {
+    const int step = fine_grid.resolution / coarse.resolution;
+    double sum = 0;
+    for (int y = 0; y < fine_grid.resolution; ++y)
+      for (int x = 0; x < fine_grid.resolution; ++x)
+        sum += double(coarse.at(0, c, x / step, y / step)) * fine_grid.at(0, c, x, y);
+    return std::numbers::pi * sum / (double(fine_grid.resolution) * fine_grid.resolution);
+  };
+  for (std::size_t k = 0; k < points.size(); ++k)
+    for (const bool coarse_apart : {true, false}) {
+      const CaptureSetView coarse = coarse_apart ? apart.view() : splat.view();
+      const Grid& coarse_grid = coarse_apart ? apart_grids[k] : splat_grids[k];
+      const Convolution ab = capture_product(coarse, fine.view(), k);
+      const Convolution ba = capture_product(fine.view(), coarse, k);
+      for (int c = 0; c < 3; ++c) {
+        const double exact = across_resolutions(coarse_grid, fine_grids[k], c);
+        for (const Convolution& r : {ab, ba})
+          EXPECT_LE(std::abs(r.value[c] - exact), r.bound[c] * 1.0001 + 1e-6 * exact)
+              << k << " " << c << (coarse_apart ? ", lights apart" : ", lights splatted");
+        EXPECT_LT(ab.bound[c], 0.5 * exact) << "a bound too loose to mean anything";
+      }
+    }
 }
 
 TEST(Capture, AnOccludedSunIsNoLight) {

@@ -138,12 +138,13 @@ Grid reconstruct(const Tree& tree) {
 }
 
 // The leaf quadrant holding (u, v) in [0,1]^2, for reading its values and bounds; level 1 is a
-// quadrant of the root.
+// quadrant of the root. With `deepest_level`, the quadrant of that level holding (u, v) where
+// the tree is refined below it (a texel of a grid of 2^deepest_level texels a side).
 struct LeafQuadrant {
   int node, quadrant, level;
 };
 template <typename Tree>
-LeafQuadrant find_leaf(const Tree& tree, double u, double v) {
+LeafQuadrant find_leaf(const Tree& tree, double u, double v, int deepest_level = 1 << 30) {
   int node = 0;
   double u0 = 0, v0 = 0, size = 1;
   for (int level = 1;; ++level) {
@@ -151,7 +152,7 @@ LeafQuadrant find_leaf(const Tree& tree, double u, double v) {
     const int qx = u >= u0 + size, qy = v >= v0 + size;
     const int q = qx + 2 * qy;
     const int child = tree.child(node, q);
-    if (!child) return {node, q, level};
+    if (!child || level >= deepest_level) return {node, q, level};
     u0 += qx * size;
     v0 += qy * size;
     node = child;
