@@ -50,12 +50,13 @@ int main(int argc, char** argv) {
   app.add_option("--tolerance", tolerance,
                  "refine while a quadrant's error bound exceeds this fraction of its own value, "
                  "or of --tolerance-floor times the entry's mean where that is larger (default "
-                 "0.05)")
-      ->check(basis::cli::non_negative_number());
+                 "0.05; at most 1e6)")
+      ->check(basis::cli::number_between(0, 1e6));
   app.add_option("--tolerance-floor", tolerance_floor,
                  "the floor of the locally relative tolerance, a fraction of the entry's mean "
-                 "(default 0.2; 0 makes --tolerance relative to the entry's mean everywhere)")
-      ->check(basis::cli::non_negative_number());
+                 "(default 0.2; 0 makes --tolerance relative to the entry's mean everywhere; at "
+                 "most 1e6)")
+      ->check(basis::cli::number_between(0, 1e6));
   app.add_flag("--absolute", absolute, "read --tolerance as an absolute value (1/sr)");
   app.add_option("--bounds", bounds,
                  "what the stored bounds bound: l2 (default), each quadrant's RMS deviation, "

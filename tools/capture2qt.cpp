@@ -93,8 +93,9 @@ int main(int argc, char** argv) {
                     "lat-long environment map (EXR, HDR, any format OpenImageIO reads; at most "
                     "2^28 pixels)");
   light->add_option("--env-constant", env_constant, "constant environment radiance R,G,B");
-  app.add_option("--env-rotate", env_rotate, "rotate the environment about z by this many degrees")
-      ->check(basis::cli::finite_number());
+  app.add_option("--env-rotate", env_rotate,
+                 "rotate the environment about z by this many degrees (-1e6 to 1e6)")
+      ->check(basis::cli::number_between(-1e6, 1e6));
   app.add_option("--scene", scene_path,
                  "OBJ scene that occludes (polygons are triangulated; up to 4 GiB and 2^28 "
                  "triangles)");

@@ -178,14 +178,16 @@ Shard parse_shard_option(const std::string& text, std::uint64_t total, const std
 
 namespace {
 
-// A finite number, at least `lowest` (above it when `strictly`), named `what` in the message.
+// A finite number, at least `lowest` (above it when `strictly`) and at most `highest`, named
+// `what` in the message.
 CLI::Validator number_check(double lowest, bool strictly, const std::string& what,
-                            const std::string& description) {
+                            const std::string& description,
+                            double highest = std::numeric_limits<double>::max()) {
   return CLI::Validator(
-      [lowest, strictly, what](std::string& text) -> std::string {
+      [lowest, strictly, highest, what](std::string& text) -> std::string {
         double value = 0;
         if (!CLI::detail::lexical_cast(text, value) || !std::isfinite(value) || value < lowest ||
-            (strictly && value == lowest))
+            (strictly && value == lowest) || value > highest)
           return what + " is required, got " + text;
         return {};
       },
@@ -202,6 +204,11 @@ CLI::Validator non_negative_number() {
 }
 CLI::Validator positive_number() {
   return number_check(0, true, "a finite number > 0", "POSITIVE");
+}
+CLI::Validator number_between(double lowest, double highest) {
+  std::ostringstream what;
+  what << "a number from " << lowest << " to " << highest;
+  return number_check(lowest, false, what.str(), "NUMBER", highest);
 }
 
 CLI::Validator unsigned_number() {

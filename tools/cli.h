@@ -72,6 +72,9 @@ Shard parse_shard_option(const std::string& text, std::uint64_t total, const std
 CLI::Validator finite_number();
 CLI::Validator non_negative_number();
 CLI::Validator positive_number();
+// A number from `lowest` to `highest` (for flags whose larger values would overflow the work they
+// scale, such as a tolerance or an angle).
+CLI::Validator number_between(double lowest, double highest);
 // A whole number from 0 to 2^64 - 1, as written (CLI11 wraps "-1" and saturates larger ones).
 CLI::Validator unsigned_number();
 

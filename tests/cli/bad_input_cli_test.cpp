@@ -284,6 +284,16 @@ TEST(BadInputMatrix, NumbersThatAreNotFiniteAreBadUsage) {
           {{"ok.qt", "cap.qt", "--accuracy", bad, "-o", "out.csv"}, 2, "--accuracy"});
   }
   check(dir, "brdf2qt", {{"ok.json", "--wi-res", "0", "-o", "out.qt"}, 2, "--wi-res"});
+  // Finite numbers too large for the work they scale are bad usage too, naming the flag (they
+  // overflowed into "tolerance ... got inf" and "rotation is not finite", exit 1, no flag named).
+  check(dir, "brdf2qt",
+        {{"ok.json", "--tolerance", "1.8e307", "-o", "out.qt"}, 2, "--tolerance: a number from"});
+  check(dir, "brdf2qt",
+        {{"ok.json", "--tolerance-floor", "1e300", "-o", "out.qt"}, 2, "--tolerance-floor"});
+  check(dir, "capture2qt",
+        {{"--env-constant", "1,1,1", "--at", "0,0,0", "--env-rotate", "1e308", "-o", "out.qt"},
+         2,
+         "--env-rotate: a number from"});
 }
 
 // A .qt path that is a FIFO is refused at once (it would otherwise wait for a writer).
