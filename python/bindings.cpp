@@ -5,6 +5,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
+#include <tbb/info.h>
 #include <tbb/task_arena.h>
 
 #include <array>
@@ -273,7 +274,9 @@ int arena_threads(int threads) {
   if (threads < 0 || threads > 1024)
     throw std::invalid_argument("threads must be 0 (every core) or 1..1024, got " +
                                 std::to_string(threads));
-  return threads > 0 ? threads : tbb::task_arena::automatic;
+  // No more than the cores: oneTBB runs no more, and asking for more prints its own warning.
+  return threads > 0 ? std::min(threads, tbb::info::default_concurrency())
+                     : tbb::task_arena::automatic;
 }
 
 // Runs work(control) on a thread of its own (without the GIL: it must not touch Python objects)

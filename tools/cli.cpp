@@ -1,5 +1,6 @@
 #include "cli.h"
 
+#include <tbb/info.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -158,7 +159,9 @@ void ProgressBar::finish() {
 }
 
 std::unique_ptr<tbb::task_arena> thread_arena(int threads) {
-  if (threads > 0) return std::make_unique<tbb::task_arena>(threads);
+  // No more than the cores: oneTBB runs no more, and asking for more prints its own warning.
+  if (threads > 0)
+    return std::make_unique<tbb::task_arena>(std::min(threads, tbb::info::default_concurrency()));
   return std::make_unique<tbb::task_arena>();
 }
 

@@ -346,6 +346,15 @@ def test_tilted_lookups_take_reflects_options(made_by_tools):
         basis.reflect_tilted(table, tree, wo, tilt, accuracy=2)
 
 
+def test_more_threads_than_cores_run_quietly(capfd):
+    """threads beyond the cores run on every core, without oneTBB's own warning on stderr."""
+    brdf = basis.Brdf.from_json(SPEC)
+    one = basis.tabulate(brdf, wo_res=3, wi_res=8, threads=1)
+    many = basis.tabulate(brdf, wo_res=3, wi_res=8, threads=1024)
+    assert "TBB" not in capfd.readouterr().err
+    assert np.array_equal(one.entry(1, 1).words, many.entry(1, 1).words)
+
+
 def test_objects_come_from_the_modules_functions_only():
     """A bare Class.__new__(Class), as generic copying code may call, gave an object whose C++
     value was never made: reading it printed garbage or crashed the interpreter."""

@@ -54,6 +54,16 @@ TEST(Brdf2qtCli, TabulatesASpecWithDefaultsAndOverrides) {
                               dir.path());
   ASSERT_EQ(again.status, 0);
   EXPECT_EQ(testing::slurp(dir.file("other.qt")), testing::slurp(dir.file("again.qt")));
+  // More threads than cores run on every core, quietly (oneTBB printed its own warning) and to
+  // the same bytes.
+  const auto more = run_tool("brdf2qt",
+                             {"glossy.json", "-o", "more.qt", "--wo-res", "7", "--wi-res", "32",
+                              "--tolerance", "0.02", "--no-tilt", "--quiet", "--threads", "1024"},
+                             dir.path());
+  ASSERT_EQ(more.status, 0) << more.err;
+  EXPECT_EQ(more.err.find("TBB"), std::string::npos) << more.err;
+  EXPECT_EQ(testing::line_count(more.err), 1) << more.err;  // the grid's warning alone
+  EXPECT_EQ(testing::slurp(dir.file("other.qt")), testing::slurp(dir.file("more.qt")));
   // --json says what was written, quiet or not (-q leaves out progress and the summary; the
   // warning of a grid too coarse for the lobe stays).
   const auto quiet =
