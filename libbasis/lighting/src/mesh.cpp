@@ -9,6 +9,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <map>
 #include <optional>
@@ -30,6 +31,31 @@ std::string first_line(const std::string& text) {
   return line;
 }
 
+// The materials of an MTL text whose emission Ke gives one number, which the MTL convention
+// reads as grey (g and b equal to r); tinyobjloader reads the missing ones as 0, a red light.
+std::vector<std::string> grey_emission_materials(const std::string& text) {
+  std::vector<std::string> grey;
+  std::string material;
+  std::istringstream lines(text);
+  for (std::string line; std::getline(lines, line);) {
+    std::istringstream tokens(line);
+    std::string keyword;
+    if (!(tokens >> keyword)) continue;
+    if (keyword == "newmtl") {
+      std::getline(tokens >> std::ws, material);
+      while (!material.empty() &&
+             (material.back() == '\r' || material.back() == ' ' || material.back() == '\t'))
+        material.pop_back();
+    } else if (keyword == "Ke") {
+      int numbers = 0;
+      for (std::string token; tokens >> token;)
+        ++numbers;
+      if (numbers == 1) grey.push_back(material);
+    }
+  }
+  return grey;
+}
+
 // The material files an OBJ names (mtllib), read with tinyobjloader's MTL reader: a relative
 // name from the OBJ's folder, an absolute one as it is. One that is not a regular file is
 // refused by name: a FIFO would block the read for ever, and a folder would read as empty.
@@ -47,12 +73,20 @@ class MaterialFilesBeside final : public tinyobj::MaterialReader {
       return false;
     }
     check_regular_file(path.string(), "a material file");
-    std::ifstream in(path);
-    if (!in) {
+    std::ifstream file(path);
+    if (!file) {
       *warning += "Material file [ " + name + " ] cannot be opened\n";
       return false;
     }
+    const std::string text((std::istreambuf_iterator<char>(file)),
+                           std::istreambuf_iterator<char>());
+    std::istringstream in(text);
     tinyobj::LoadMtl(names, materials, &in, warning, error);
+    for (const std::string& material : grey_emission_materials(text))
+      if (const auto found = names->find(material); found != names->end()) {
+        float* ke = (*materials)[std::size_t(found->second)].emission;
+        ke[1] = ke[2] = ke[0];
+      }
     files_.push_back(path.string());
     return true;
   }
@@ -111,7 +145,8 @@ void check_vertex_numbers(const std::string& path) {
     ++vertex;
     std::istringstream tokens(line.substr(start + 2));
     std::string token;
-    for (int k = 0; tokens >> token; ++k) {
+    int coordinates = 0;
+    for (; tokens >> token; ++coordinates) {
       double value = 0;
       const auto [end, error] = std::from_chars(token.data(), token.data() + token.size(), value);
       if (error != std::errc() || end != token.data() + token.size())
@@ -121,6 +156,11 @@ void check_vertex_numbers(const std::string& path) {
         throw FileError(path + ":" + std::to_string(number) + ": vertex " + std::to_string(vertex) +
                         " is NaN or infinite");
     }
+    // The reader takes missing coordinates as 0 without a word.
+    if (coordinates < 3)
+      throw FileError(path + ":" + std::to_string(number) + ": vertex " + std::to_string(vertex) +
+                      " has " + std::to_string(coordinates) +
+                      (coordinates == 1 ? " coordinate" : " coordinates") + ", not x, y and z");
   };
   int number = 0;
   for (std::string text; std::getline(in, text);) {
@@ -259,11 +299,16 @@ TriangleMesh read_obj(const std::string& path) {
   const bool has_normals = normal_count > 0;
   // Emission past kLargestEmission would overflow the captures' float texels. (The reader
   // takes a Ke it cannot parse, such as nan, as 0.)
-  for (const tinyobj::material_t& material : materials)
+  for (const tinyobj::material_t& material : materials) {
     for (const float e : material.emission)
       if (!(std::abs(e) <= kLargestEmission))
         throw FileError(path + ": material '" + material.name +
                         "': emission Ke is infinite or beyond 1e30");
+    if (std::any_of(std::begin(material.emission), std::end(material.emission),
+                    [](float e) { return e < 0; }))
+      mesh.reader_warnings.push_back(path + ": material '" + material.name +
+                                     "': negative emission Ke read as 0");
+  }
   for (const tinyobj::shape_t& shape : shapes) {
     const auto& indices = shape.mesh.indices;
     for (std::size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f) {
@@ -274,8 +319,11 @@ TriangleMesh read_obj(const std::string& path) {
       std::array<std::optional<std::array<float, 3>>, 3> corner;
       for (int k = 0; k < 3; ++k) {
         const int normal_index = indices[3 * f + k].normal_index;
-        if (normal_index >= 0 && std::size_t(normal_index) < normal_count)
-          corner[k] = normals[std::size_t(normal_index)];
+        if (normal_index >= 0 && std::size_t(normal_index) >= normal_count)
+          throw FileError(path + ": shape '" + shape.name + "' face " + std::to_string(f + 1) +
+                          " uses normal " + std::to_string(normal_index + 1) + " of " +
+                          std::to_string(normal_count));
+        if (normal_index >= 0) corner[k] = normals[std::size_t(normal_index)];
         const int index = indices[3 * f + k].vertex_index;
         if (index < 0 || std::size_t(index) >= vertex_count)
           throw FileError(path + ": shape '" + shape.name + "' face " + std::to_string(f + 1) +
