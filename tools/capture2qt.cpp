@@ -184,7 +184,7 @@ int main(int argc, char** argv) {
       if (!shard_text.empty() || skip_existing)
         throw UsageError("--image compresses one capture: no --shard or --skip-existing");
       for (const char* flag : {"--res", "--spp", "--seed", "--normal", "--splat-lights", "--dump",
-                               "--zero-invalid", "--env-rotate"})
+                               "--zero-invalid", "--env-rotate", "--threads"})
         if (app.count(flag) > 0)
           throw UsageError(std::string(flag) + " shapes a traced capture; --image takes the " +
                            "image as it is");

@@ -71,14 +71,22 @@ const CLI::Option* option_given_empty(const CLI::App& app) {
 
 int run(CLI::App& app, int argc, char** argv, const std::function<void()>& body) {
   const std::string tool = app.get_name();
+  // --help and --version print to standard output; one that cannot take them is an error.
+  const auto printed = [&](int status) {
+    if (standard_output_written()) return status;
+    std::cerr << tool
+              << ": standard output: " << (errno != 0 ? std::strerror(errno) : "write error")
+              << "; help lost\n";
+    return kExitBadData;
+  };
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
-    return app.exit(e);
+    return printed(app.exit(e));
   } catch (const CLI::CallForAllHelp& e) {
-    return app.exit(e);
+    return printed(app.exit(e));
   } catch (const CLI::CallForVersion& e) {
-    return app.exit(e);
+    return printed(app.exit(e));
   } catch (const CLI::ParseError& e) {
     std::cerr << tool << ": " << one_line(e.what()) << " (see --help)\n";
     return kExitBadUsage;

@@ -314,6 +314,9 @@ int main(int argc, char** argv) {
     basis::cli::check_png_name(png, "--png");
     if (no_bound && accuracy > 0)
       throw UsageError("--accuracy stops on the certified bound: not with --no-bound");
+    // The dense product sums every texel: a target applies to the trees --time runs beside it.
+    if (dense && !time && app.count("--accuracy") > 0)
+      throw UsageError("--accuracy stops the trees' descent: with --dense, only beside --time");
     basis::CaptureSource a = basis::CaptureSource::open(a_path);
     basis::CaptureSource b = basis::CaptureSource::open(b_path);
     if (reference) {

@@ -89,8 +89,8 @@ int main(int argc, char** argv) {
   return basis::cli::run(app, argc, argv, [&] {
     using basis::cli::UsageError;
     basis::cli::check_outputs_spare_inputs({{"--png", png}}, {{"file", input}});
-    if (png.empty() && (!entry.empty() || index >= 0 || group > 0))
-      throw UsageError("--entry, --index and --group choose the tree drawn by --png");
+    if (png.empty() && (!entry.empty() || index >= 0 || group > 0 || app.count("--size") > 0))
+      throw UsageError("--entry, --index, --group and --size shape the picture --png draws");
     if (!entry.empty() && index >= 0)
       throw UsageError(
           "--entry (a table's entry) and --index (a capture or tree) exclude each "
