@@ -35,8 +35,8 @@ extern "C" void on_signal(int) {
 
 // Whether everything written to standard output reached it; errno says why not (a full disk).
 bool standard_output_written() {
+  errno = 0;  // before the writes, so that a failed one's reason stays for the message
   std::cout.flush();
-  errno = 0;
   return std::fflush(stdout) == 0 && !std::ferror(stdout) && !std::cout.fail();
 }
 

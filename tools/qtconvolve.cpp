@@ -315,8 +315,10 @@ int main(int argc, char** argv) {
     if (no_bound && accuracy > 0)
       throw UsageError("--accuracy stops on the certified bound: not with --no-bound");
     // The dense product sums every texel: a target applies to the trees --time runs beside it.
-    if (dense && !time && app.count("--accuracy") > 0)
-      throw UsageError("--accuracy stops the trees' descent: with --dense, only beside --time");
+    for (const char* flag : {"--accuracy", "--no-bound"})
+      if (dense && !time && app.count(flag) > 0)
+        throw UsageError(std::string(flag) +
+                         " shapes the trees' descent: with --dense, only beside --time");
     basis::CaptureSource a = basis::CaptureSource::open(a_path);
     basis::CaptureSource b = basis::CaptureSource::open(b_path);
     if (reference) {

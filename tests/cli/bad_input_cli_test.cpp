@@ -783,6 +783,7 @@ TEST(BadInputMatrix, IgnoredOrContradictoryFlagsAreBadUsage) {
   check(dir, "qtinfo", {{"ok.qt", "--size", "64"}, 2, "--size"});
   check(dir, "qtconvolve",
         {{"ok.qt", "cap.qt", "--dense", "--accuracy", "0.1", "-o", "out.csv"}, 2, "--accuracy"});
+  check(dir, "qtconvolve", {{"ok.qt", "cap.qt", "--dense", "--no-bound"}, 2, "--no-bound"});
   const auto timed =
       run_tool("qtconvolve",
                {"ok.qt", "cap.qt", "--dense", "--accuracy", "0.1", "--time", "--json"}, dir.path());

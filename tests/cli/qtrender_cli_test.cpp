@@ -173,7 +173,6 @@ TEST(QtrenderCli, BadScenesGetOneLineAndNoImage) {
                                           "--method", "mc", "--spp", "1"});
   EXPECT_EQ(full.status, 1) << full.err;
   EXPECT_NE(full.err.find("full.exr: No space left on device"), std::string::npos) << full.err;
-  EXPECT_FALSE(std::filesystem::exists(dir.file("full.png")));
   // A missing folder is named as the output, not as a temporary.
   const auto missing = run_tool("qtrender", {dir.file("good.json"), "-o", dir.file("no/such/o.exr"),
                                              "--method", "mc", "--spp", "1"});

@@ -33,24 +33,34 @@ std::string first_line(const std::string& text) {
 
 // The materials of an MTL text whose emission Ke gives one number, which the MTL convention
 // reads as grey (g and b equal to r); tinyobjloader reads the missing ones as 0, a red light.
-std::vector<std::string> grey_emission_materials(const std::string& text) {
-  std::vector<std::string> grey;
-  std::string material;
-  std::istringstream lines(text);
+// Each as its place among the text's material definitions (newmtl) and its name.
+struct MaterialDefinition {
+  std::size_t place;
+  std::string name;
+};
+std::vector<MaterialDefinition> grey_emission_materials(const std::string& text) {
+  std::vector<MaterialDefinition> grey;
+  std::optional<MaterialDefinition> material;
+  std::size_t definitions = 0;
+  // Lines end at \n, \r\n or a lone \r, as the reader ends them.
+  std::string lines_text = text;
+  std::replace(lines_text.begin(), lines_text.end(), '\r', '\n');
+  std::istringstream lines(lines_text);
   for (std::string line; std::getline(lines, line);) {
     std::istringstream tokens(line);
     std::string keyword;
     if (!(tokens >> keyword)) continue;
     if (keyword == "newmtl") {
-      std::getline(tokens >> std::ws, material);
-      while (!material.empty() &&
-             (material.back() == '\r' || material.back() == ' ' || material.back() == '\t'))
-        material.pop_back();
-    } else if (keyword == "Ke") {
-      int numbers = 0;
-      for (std::string token; tokens >> token;)
+      std::string name;
+      std::getline(tokens >> std::ws, name);
+      while (!name.empty() && (name.back() == ' ' || name.back() == '\t'))
+        name.pop_back();
+      material = MaterialDefinition{definitions++, name};
+    } else if (keyword == "Ke" && material) {
+      int numbers = 0;  // up to a comment
+      for (std::string token; tokens >> token && token.front() != '#';)
         ++numbers;
-      if (numbers == 1) grey.push_back(material);
+      if (numbers == 1) grey.push_back(*material);
     }
   }
   return grey;
@@ -81,10 +91,12 @@ class MaterialFilesBeside final : public tinyobj::MaterialReader {
     const std::string text((std::istreambuf_iterator<char>(file)),
                            std::istreambuf_iterator<char>());
     std::istringstream in(text);
+    const std::size_t before = materials->size();  // the reader appends each definition
     tinyobj::LoadMtl(names, materials, &in, warning, error);
-    for (const std::string& material : grey_emission_materials(text))
-      if (const auto found = names->find(material); found != names->end()) {
-        float* ke = (*materials)[std::size_t(found->second)].emission;
+    for (const MaterialDefinition& grey : grey_emission_materials(text))
+      if (before + grey.place < materials->size() &&
+          (*materials)[before + grey.place].name == grey.name) {
+        float* ke = (*materials)[before + grey.place].emission;
         ke[1] = ke[2] = ke[0];
       }
     files_.push_back(path.string());
@@ -99,8 +111,11 @@ class MaterialFilesBeside final : public tinyobj::MaterialReader {
 };
 
 // A face line's indices (v, v/t, v//n, v/t/n, negative from the end) that do not fit a 32-bit
-// int, which tinyobjloader would wrap round to another vertex, or that are not integers.
-void check_face_indices(const std::string& path, int number, std::string_view rest) {
+// int, which tinyobjloader would wrap round to another vertex, or that are not integers; and
+// relative normal indices before the first of the `normals` read so far, which it would read as
+// "no normal" (normal indices past the file's normals are checked once it is read).
+void check_face_indices(const std::string& path, int number, std::string_view rest,
+                        long long normals) {
   auto separator = [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '/'; };
   for (std::size_t at = 0; at < rest.size();) {
     if (separator(rest[at])) {
@@ -122,6 +137,17 @@ void check_face_indices(const std::string& path, int number, std::string_view re
                       "' is not a vertex number");
     at = end;
   }
+  std::istringstream corners{std::string(rest)};
+  for (std::string corner; corners >> corner;) {
+    const std::size_t second = corner.find('/', corner.find('/') + 1);
+    if (corner.find('/') == std::string::npos || second == std::string::npos) continue;
+    long long index = 0;
+    std::from_chars(corner.data() + second + 1, corner.data() + corner.size(), index);
+    if (index < 0 && -index > normals)
+      throw FileError(path + ":" + std::to_string(number) + ": face index '" +
+                      corner.substr(second + 1) + "' names a normal before the first (" +
+                      std::to_string(normals) + " read so far)");
+  }
 }
 
 // tinyobjloader reads a coordinate it cannot parse ("nan", "abc") as 0 without a word, and
@@ -129,14 +155,19 @@ void check_face_indices(const std::string& path, int number, std::string_view re
 // here before it reads the file.
 void check_vertex_numbers(const std::string& path) {
   std::ifstream in(path);
-  long long vertex = 0;
+  long long vertex = 0, normals = 0;
   // Lines end at \n, \r\n or a lone \r, as the reader ends them.
   auto check_line = [&](const std::string& line, int number) {
     // The reader skips leading blanks, so a vertex or face line may be indented.
     const std::size_t start = std::min(line.find_first_not_of(" \t"), line.size());
     if (line.size() >= start + 2 && line[start] == 'f' &&
         (line[start + 1] == ' ' || line[start + 1] == '\t')) {
-      check_face_indices(path, number, std::string_view(line).substr(start + 2));
+      check_face_indices(path, number, std::string_view(line).substr(start + 2), normals);
+      return;
+    }
+    if (line.compare(start, 2, "vn") == 0 && line.size() > start + 2 &&
+        (line[start + 2] == ' ' || line[start + 2] == '\t')) {
+      ++normals;
       return;
     }
     if (line.size() < start + 2 || line[start] != 'v' ||

@@ -12,7 +12,6 @@
 #include "basis/core/dense.h"
 #include "basis/core/gradual_underflow.h"
 #include "basis/core/hemisphere.h"
-#include "basis/core/parabolic.h"
 
 namespace basis {
 
@@ -31,14 +30,17 @@ double largest_tilt_degrees(const CaptureSetView& captures, const Vec3& normal) 
   return std::acos(std::clamp(smallest_cosine, -1.0, 1.0)) * 180 / std::numbers::pi;
 }
 
+Vec3 light_outgoing(const Vec3& wo) {
+  return wo.z() > 0 ? wo : Vec3(wo.x(), wo.y(), 1e-9).normalized();
+}
+
 namespace {
 
 // Adds f(wi, wo) E wi.z for each light, turned from the record's frame into the shading frame
 // when both are given; lights below the shading horizon drop out. f is light_brdf at wi when
 // given, else what table_f(wi, f, error) adds up (with its error bound). light_brdf is taken at
-// the direction the table's entries stand for (table_outgoing: wo, pulled to at most
-// kTableMaxOutgoingDegrees from the normal), as the table's part of the lookup is: at the
-// horizon itself, where f is 0, it lost the lights that a wo a hair above it kept.
+// light_outgoing(wo): at the horizon itself, where f is 0, it lost the lights that a wo a hair
+// above it kept.
 template <typename TableF>
 void add_lights(std::span<const DirectionalLight> lights, const std::optional<Frame>& record,
                 const std::optional<Frame>& shading, const Vec3& wo, const Brdf* light_brdf,
@@ -51,8 +53,7 @@ void add_lights(std::span<const DirectionalLight> lights, const std::optional<Fr
     value[c] = result.value[c];
     bound[c] = result.bound[c];
   }
-  const double lowest_z = std::cos(kTableMaxOutgoingDegrees * std::numbers::pi / 180);
-  const Vec3 wo_f = wo.z() >= lowest_z ? wo : table_outgoing(hemisphere_to_parabolic(wo));
+  const Vec3 wo_f = light_outgoing(wo);
   for (const DirectionalLight& light : lights) {
     Vec3 wi = light.direction;
     if (shading) wi = shading->to_local(record->to_world(wi));

@@ -554,39 +554,62 @@ TEST(Capture, LightsKeptApartCarryWhatTheTexelsWouldHold) {
 }
 
 // A lookup exactly at the horizon keeps the lights that one a hair above it keeps: their f is
-// taken at the direction the table's entries stand for (89 degrees from the normal), as the
-// table's part is. It was taken at wo itself, where f is 0, and the suns were lost; through a
-// white Lambert table they are most of the light.
+// the BRDF's limit from above the horizon. It was taken at wo itself, where f is 0, and the suns
+// were lost; through a white Lambert table they are most of the light. Near the horizon, the
+// lights' share is the sum of f(wi, wo) E cos over the lights at wo itself (as a reference
+// takes it), for Lambert and for GGX, whose f changes with wo there.
 TEST(Capture, LookupsAtTheHorizonKeepTheLights) {
   BrdfTableOptions o;
   o.wo_resolution = 5;
   o.wi_resolution = 16;
   o.tilt_derivatives = false;
-  const Brdf white = Lambert{{1, 1, 1}};
-  const BrdfTable table = tabulate_brdf(white, o);
   const std::vector<SurfacePoint> points = {{Vec3::Zero(), Vec3::UnitZ()}};
   CaptureSetOptions options;
   options.capture.resolution = 32;
   options.capture.compact_lights = CaptureOptions::CompactLights::apart;
   const CaptureSet set = capture_set(Environment(two_suns_and_a_patch()), nullptr, points, options);
-  ASSERT_EQ(set.view().lights_of(0).size(), 2u);
-  const Convolution sky_alone = reflect(table.view(), set.view().trees.tree(0), Vec3::UnitZ());
-  for (const Vec3& horizon : {Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(-0.6, 0.8, 0)})
-    for (const Brdf* light_brdf : {&white, static_cast<const Brdf*>(nullptr)}) {
-      ShadingOptions at, above;
-      at.wo = horizon;
-      above.wo = horizon + Vec3(0, 0, 1e-9);
-      at.light_brdf = above.light_brdf = light_brdf;
-      const Convolution lo_at = shade(table.view(), set.view(), 0, at);
-      const Convolution lo_above = shade(table.view(), set.view(), 0, above);
-      for (int c = 0; c < 3; ++c) {
-        // The suns are most of it: far more than the sky's share and the bounds.
-        EXPECT_GT(lo_above.value[c], 2 * sky_alone.value[c]) << horizon.transpose();
-        EXPECT_NEAR(lo_at.value[c], lo_above.value[c],
-                    lo_at.bound[c] + lo_above.bound[c] + 1e-6 * lo_above.value[c])
-            << horizon.transpose() << (light_brdf ? ", f from the BRDF" : ", f from the table");
+  const std::span<const DirectionalLight> lights = set.view().lights_of(0);
+  ASSERT_EQ(lights.size(), 2u);
+  const PackedTreeView sky = set.view().trees.tree(0);
+  for (const Brdf& brdf :
+       {Brdf(Lambert{{1, 1, 1}}), Brdf(Ggx{{0.1, 0.1, 0.1}, {0.9, 0.9, 0.9}, 0.3})}) {
+    const BrdfTable table = tabulate_brdf(brdf, o);
+    const Convolution sky_alone = reflect(table.view(), sky, Vec3::UnitZ());
+    for (const Vec3& horizon : {Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(-0.6, 0.8, 0)}) {
+      for (const Brdf* light_brdf : {&brdf, static_cast<const Brdf*>(nullptr)}) {
+        ShadingOptions at, above;
+        at.wo = horizon;
+        above.wo = horizon + Vec3(0, 0, 1e-9);
+        at.light_brdf = above.light_brdf = light_brdf;
+        const Convolution lo_at = shade(table.view(), set.view(), 0, at);
+        const Convolution lo_above = shade(table.view(), set.view(), 0, above);
+        for (int c = 0; c < 3; ++c) {
+          if (std::holds_alternative<Lambert>(brdf)) {  // the suns are most of it
+            EXPECT_GT(lo_above.value[c], 2 * sky_alone.value[c]) << horizon.transpose();
+          }
+          EXPECT_NEAR(lo_at.value[c], lo_above.value[c],
+                      lo_at.bound[c] + lo_above.bound[c] + 1e-6 * lo_above.value[c])
+              << horizon.transpose() << (light_brdf ? ", f from the BRDF" : ", f from the table");
+        }
       }
+      // 89.7 degrees from the normal, past the table's last entries: the lights' f at wo.
+      const Vec3 grazing = (horizon + Vec3(0, 0, 0.005)).normalized();
+      ShadingOptions near;
+      near.wo = grazing;
+      near.light_brdf = &brdf;
+      const Convolution lo = shade(table.view(), set.view(), 0, near);
+      const Convolution table_part = reflect(table.view(), sky, grazing);
+      Color lights_part{0, 0, 0};
+      for (const DirectionalLight& l : lights) {
+        const Color f = evaluate(brdf, l.direction, grazing);
+        for (int c = 0; c < 3; ++c)
+          lights_part[c] += f[c] * l.energy[c] * l.direction.z();
+      }
+      for (int c = 0; c < 3; ++c)
+        EXPECT_NEAR(lo.value[c] - table_part.value[c], lights_part[c], 1e-5 * lo.value[c])
+            << horizon.transpose();
     }
+  }
 }
 
 // Products of captures whose lights are kept apart against the product of their full texel

@@ -51,7 +51,16 @@ TEST(ObjFile, ANormalIndexPastTheNormalsIsAnError) {
   EXPECT_NE(read_error(dir.file("normals.obj")).find("face 1 uses normal 5 of 1"),
             std::string::npos)
       << read_error(dir.file("normals.obj"));
-  write_text(dir.file("fine.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\n");
+  // A relative index before the first normal, which the reader took for "no normal".
+  for (const std::string index : {"-2", "-3"}) {
+    write_text(dir.file("before.obj"),
+               "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//" + index + "\n");
+    EXPECT_NE(read_error(dir.file("before.obj"))
+                  .find("before.obj:5: face index '" + index + "' names a normal before the first"),
+              std::string::npos)
+        << read_error(dir.file("before.obj"));
+  }
+  write_text(dir.file("fine.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//-1\n");
   const TriangleMesh fine = read_obj(dir.file("fine.obj"));
   ASSERT_EQ(fine.corner_normals.size(), 1u);
   EXPECT_EQ(fine.corner_normals[0][2][2], 1.0f);
@@ -75,6 +84,19 @@ TEST(ObjFile, EmissionOfOneNumberIsGreyAndNegativeEmissionIsZeroWithAWarning) {
   EXPECT_NE(mesh.reader_warnings[0].find("material 'negative': negative emission Ke read as 0"),
             std::string::npos)
       << mesh.reader_warnings[0];
+  // Lines that end at a lone carriage return, a comment after the number, and a name defined
+  // twice (faces use the first definition, as the reader keeps it): each read as written.
+  write_text(dir.file("forms.mtl"),
+             "newmtl cr\rKe 3\rnewmtl comment\nKe 4 # a lamp\nnewmtl twice\nKe 1 0 0\n"
+             "newmtl twice\nKe 5\n");
+  write_text(dir.file("forms.obj"),
+             "mtllib forms.mtl\nv 0 0 1\nv 1 0 1\nv 0 1 1\n"
+             "usemtl cr\nf 1 2 3\nusemtl comment\nf 1 2 3\nusemtl twice\nf 1 2 3\n");
+  const TriangleMesh forms = read_obj(dir.file("forms.obj"));
+  ASSERT_EQ(forms.emission.size(), 3u);
+  EXPECT_EQ(forms.emission[0], (Color{3, 3, 3}));
+  EXPECT_EQ(forms.emission[1], (Color{4, 4, 4}));
+  EXPECT_EQ(forms.emission[2], (Color{1, 0, 0}));
 }
 
 }  // namespace

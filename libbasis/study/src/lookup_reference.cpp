@@ -21,6 +21,7 @@
 #include "basis/lighting/capture_inputs.h"
 #include "basis/lighting/embree_scene.h"
 #include "basis/lighting/mesh.h"
+#include "basis/lighting/shading.h"
 
 namespace basis {
 
@@ -132,7 +133,7 @@ std::vector<Rgb> reference_lookups(const QtFile& table_file, const QtFile& captu
       const Vec3& wi = light.direction;
       Color f{0, 0, 0};
       if (light_brdf) {
-        f = evaluate(*light_brdf, wi, wo);
+        f = evaluate(*light_brdf, wi, light_outgoing(wo));
       } else {
         for (const Grid& entry : entries) {
           const auto [x, y] = cosine_hemisphere_texel(wi, entry.resolution);

@@ -32,9 +32,14 @@ struct ShadingOptions {
   WoInterpolation interpolation = WoInterpolation::hermite;
 };
 
+// The outgoing direction the lights' f is taken at for a unit wo (z >= 0): wo itself above the
+// horizon; on it, where BRDFs are 0, their limit from above (wo raised by 1e-9), so that a wo
+// exactly on the horizon keeps the lights a wo a hair above it keeps.
+Vec3 light_outgoing(const Vec3& wo);
+
 // The radiance the directional lights of a record (directions in frame `record`) reflect towards
-// wo (in frame `shading`): the sum of f(wi, wo) E wi.z with wi each light turned into the
-// shading frame; lights below its horizon drop out.
+// wo (in frame `shading`): the sum of f(wi, light_outgoing(wo)) E wi.z with wi each light turned
+// into the shading frame; lights below its horizon drop out.
 Rgb reflect_lights(std::span<const DirectionalLight> lights, const Frame& record,
                    const Frame& shading, const Vec3& wo, const Brdf& brdf);
 
@@ -83,12 +88,12 @@ Convolution shade_dense(const DenseLookup& table, const Grid& radiance,
                         std::span<const DirectionalLight> lights, const Brdf* light_brdf);
 
 // The integral of L_a L_b cos over the hemisphere (pi times the product's integral over the
-// cosine-weighted map) at capture k of two sets of one resolution, each capture's directional
-// lights standing in the texel they fall in (as splat_lights would put them); the bound adds,
-// for each light, its weight times the other tree's leaf's largest-deviation bound there. A set of
-// one capture stands for every point. The trees' descent takes `options` (an accuracy target, or
-// the values alone with a bound of +infinity). Throws std::invalid_argument when sets with lights
-// differ in resolution.
+// cosine-weighted map) at capture k, each capture's directional lights standing in the texel
+// they fall in at its own resolution (as splat_lights would put them; the sets' resolutions may
+// differ); the bound adds, for each light, its weight times the largest-deviation bound of the
+// other tree's quadrant over that texel (or of its leaf holding it). A set of one capture stands
+// for every point. The trees' descent takes `options` (an accuracy target, or the values alone
+// with a bound of +infinity).
 Convolution capture_product(const CaptureSetView& a, const CaptureSetView& b, std::size_t k,
                             const ConvolutionOptions& options = {});
 
