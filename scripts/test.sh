@@ -36,6 +36,13 @@ if [ "${BASIS_SKIP_SANITIZERS:-0}" != 1 ]; then
   repeated_accuracy_cases+='|QtconvolveCli\.CertifiedBoundHoldsAgainstTheFullResolutionReference'
   repeated_accuracy_cases+='|FirstOrderTree\.TreesOfPackedTreesHoldAgainstTheirData'
   repeated_accuracy_cases+='|RglBrdf\.TabulatedAlbedoMatchesTheFilesOwnSampler'
+  # Numeric checks at scale whose code smaller tests of their families run under the sanitizers:
+  # rotation (LargeTiltsAgainstExactlyRotatedSphericalHarmonics), Monte Carlo (Renderer.*), MERL
+  # files (MerlBrdf.*) and RGL sampling (SamplerPdfAgreesWithEvaluate).
+  repeated_accuracy_cases+='|RotationCompensation\.CutsTheTiltErrorUnderASyntheticSky'
+  repeated_accuracy_cases+='|MonteCarlo\.AgreesWithIntegrationOverTheMapWithIndependentVisibility'
+  repeated_accuracy_cases+='|MerlBrdf\.FileFromAnalyticBrdfReproducesItsAlbedo'
+  repeated_accuracy_cases+='|RglBrdf\.SampledAlbedoMatchesQuadratureOfTheEvaluation'
   # intercept_tls_get_addr=0: clang 14's runtime misreads some dynamic TLS blocks of the image
   # module (loaded with dlopen) on glibc 2.36 and its leak check then crashes at exit, about
   # once in 50 processes; the blocks are heap allocations the leak check still scans.
