@@ -139,8 +139,9 @@ void check_face_indices(const std::string& path, int number, std::string_view re
   }
   std::istringstream corners{std::string(rest)};
   for (std::string corner; corners >> corner;) {
+    // v//n or v/t/n: the normal after the second slash (none without one: npos + 1 is 0).
     const std::size_t second = corner.find('/', corner.find('/') + 1);
-    if (corner.find('/') == std::string::npos || second == std::string::npos) continue;
+    if (second == std::string::npos) continue;
     long long index = 0;
     std::from_chars(corner.data() + second + 1, corner.data() + corner.size(), index);
     if (index < 0 && -index > normals)
