@@ -7,10 +7,14 @@ target_compile_options(basis_options INTERFACE -fno-math-errno)
 if(BASIS_NATIVE_ARCH)
   target_compile_options(basis_options INTERFACE -march=native)
 endif()
-# Without AVX-512 the convolution takes its SSE4.1 path, as on CPUs that lack it: the sanitizer
-# build does so, so that the tests run both paths.
+# Without AVX-512 the convolution takes its AVX2 path, and without AVX2 its SSE4.1 path, as on
+# CPUs that lack them: the sanitizer build takes the SSE4.1 path, so that the tests run it as
+# well as the build machine's widest.
 if(NOT BASIS_AVX512)
   target_compile_options(basis_options INTERFACE -mno-avx512f)
+endif()
+if(NOT BASIS_AVX2 AND NOT BASIS_AVX512)
+  target_compile_options(basis_options INTERFACE -mno-avx2)
 endif()
 if(BASIS_FUZZ)
   if(NOT CMAKE_CXX_COMPILER_ID STREQUAL "Clang")

@@ -609,6 +609,243 @@ struct NarrowPairs {
   }
 };
 
+#if defined(__AVX2__) && !(defined(__AVX512F__) && defined(__AVX512BW__) && defined(__AVX512VL__))
+
+// Twelve lanes on AVX2 registers: channels 0 and 1 of four quadrants in `low` (lanes 4c .. 4c +
+// 3 hold channel c), channel 2 in `high`. Each lane goes through the operations NarrowPairs'
+// lane of the same channel and quadrant goes through, in the same order.
+struct Lanes12 {
+  __m256 low;
+  __m128 high;
+};
+
+inline Lanes12 operator+(Lanes12 x, Lanes12 y) {
+  return {_mm256_add_ps(x.low, y.low), _mm_add_ps(x.high, y.high)};
+}
+inline Lanes12 operator-(Lanes12 x, Lanes12 y) {
+  return {_mm256_sub_ps(x.low, y.low), _mm_sub_ps(x.high, y.high)};
+}
+inline Lanes12 operator*(Lanes12 x, Lanes12 y) {
+  return {_mm256_mul_ps(x.low, y.low), _mm_mul_ps(x.high, y.high)};
+}
+inline Lanes12 lanes12(float v) {
+  return {_mm256_set1_ps(v), _mm_set1_ps(v)};
+}
+// Channel c's value v in its four lanes.
+inline Lanes12 lanes12_per_channel(const float* v) {
+  return {_mm256_setr_ps(v[0], v[0], v[0], v[0], v[1], v[1], v[1], v[1]), _mm_set1_ps(v[2])};
+}
+// One channel's four lanes in all three channels.
+inline Lanes12 lanes12_grey(__m128 v) {
+  return {_mm256_set_m128(v, v), v};
+}
+inline Lanes12 abs12(Lanes12 x) {
+  return {_mm256_andnot_ps(_mm256_set1_ps(-0.0f), x.low), abs_ps(x.high)};
+}
+inline Lanes12 max12(Lanes12 x, Lanes12 y) {
+  return {_mm256_max_ps(x.low, y.low), _mm_max_ps(x.high, y.high)};
+}
+inline Lanes12 min12(Lanes12 x, Lanes12 y) {
+  return {_mm256_min_ps(x.low, y.low), _mm_min_ps(x.high, y.high)};
+}
+// x where the 4-lane mask (kLaneMasks) is set, in every channel, and 0 elsewhere; or where it
+// is clear (andnot12).
+inline Lanes12 and12(__m128 mask, Lanes12 x) {
+  return {_mm256_and_ps(_mm256_set_m128(mask, mask), x.low), _mm_and_ps(mask, x.high)};
+}
+inline Lanes12 andnot12(__m128 mask, Lanes12 x) {
+  return {_mm256_andnot_ps(_mm256_set_m128(mask, mask), x.low), _mm_andnot_ps(mask, x.high)};
+}
+// The quadrants where x <= y in every channel, as a 4-bit mask.
+inline unsigned all_channels_at_most(Lanes12 x, Lanes12 y) {
+  const __m256 low = _mm256_cmp_ps(x.low, y.low, _CMP_LE_OQ);
+  const __m128 both = _mm_and_ps(_mm256_castps256_ps128(low), _mm256_extractf128_ps(low, 1));
+  return unsigned(_mm_movemask_ps(_mm_and_ps(both, _mm_cmple_ps(x.high, y.high))));
+}
+
+// Per-pair arithmetic on AVX2 registers for RGB pairs: NarrowPairs' on twelve lanes (Lanes12),
+// two registers an operation where NarrowPairs takes three, and six accumulators where it takes
+// nine; each lane's sums are NarrowPairs', in the same order. A grey side is repeated in all
+// three channels. kSharedWordsB: b's values are known to be shared-exponent words (else the
+// tree says). kBound: as NarrowPairs'.
+template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB, bool kFolded = false,
+          bool kSharedWordsB = false, bool kBound = true>
+struct MidPairs {
+  static constexpr int C = 3;
+  struct Sums {
+    Lanes12 value[GA];
+    Lanes12 bound = lanes12(0);
+    Lanes12 magnitude = lanes12(0);
+    Sums() {
+      for (int g = 0; g < GA; ++g)
+        value[g] = lanes12(0);
+    }
+    // Adds o times scale (a level's sums times its area, a power of two: exact).
+    void add(const Sums& o, float scale = 1) {
+      const Lanes12 s = lanes12(scale);
+      for (int g = 0; g < GA; ++g)
+        value[g] = value[g] + o.value[g] * s;
+      bound = bound + o.bound * s;
+      magnitude = magnitude + o.magnitude * s;
+    }
+    static float lanes(Lanes12 v, int c) {
+      if (c == 2) return lane_sum(v.high);
+      return lane_sum(c == 0 ? _mm256_castps256_ps128(v.low) : _mm256_extractf128_ps(v.low, 1));
+    }
+    float value_of(int g, int c) const { return lanes(value[g], c); }
+    float bound_of(int c) const { return lanes(bound, c); }
+    float magnitude_of(int c) const { return lanes(magnitude, c); }
+  };
+
+  // The halves of group g of a node of `channels` channels whose values start at w.
+  static Lanes12 values(const std::uint32_t* w, int channels, int g) {
+    const std::uint32_t* p = w + 2 * g * channels;
+    if (channels == 1) return lanes12_grey(load_halves(p));
+    return {_mm256_cvtph_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(p))),
+            load_halves(p + 4)};
+  }
+  // The bound codes of a node of `channels` channels at word offset `codes`.
+  static Lanes12 bounds(const std::uint32_t* w, int channels, std::size_t codes) {
+    if (channels == 1) return lanes12_grey(load_bound_codes(w + codes));
+    const __m256i low =
+        _mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(w + codes)));
+    return {_mm256_castsi256_ps(_mm256_add_epi32(_mm256_slli_epi32(low, 20),
+                                                 _mm256_set1_epi32(int(kBoundCodeBias)))),
+            load_bound_codes(w + codes + 2)};
+  }
+
+  // Four shared-exponent words at w (channel c of word q in lane 4c + q), and their steps in the
+  // same lanes.
+  static Lanes12 shared_values(const std::uint32_t* w, Lanes12& steps) {
+    const __m128i words = _mm_loadu_si128(reinterpret_cast<const __m128i*>(w));
+    const __m128 step = shared_steps(words);
+    steps = lanes12_grey(step);
+    const int m = kSharedMantissaBits;
+    const __m256i shifted = _mm256_srlv_epi32(_mm256_broadcastsi128_si256(words),
+                                              _mm256_setr_epi32(0, 0, 0, 0, m, m, m, m));
+    const __m256i mantissas = _mm256_and_si256(shifted, _mm256_set1_epi32(511));
+    return {_mm256_mul_ps(_mm256_cvtepi32_ps(mantissas), steps.low),
+            shared_channel(words, 2, step)};
+  }
+
+  // The bound of exact texels of magnitude m (see NarrowPairs::texel_bounds).
+  static Lanes12 texel_bounds(Lanes12 m, float total_weight, float scale) {
+    return (m * lanes12(float(kHalfRounding)) +
+            lanes12(float(kHalfSubnormalRounding) * total_weight)) *
+           lanes12(scale);
+  }
+
+  // The largest-deviation alternatives to the product term (see linf_terms on SSE registers).
+  static Lanes12 linf_terms(const DescentConstants<CA, CB>& k, Lanes12 term, Lanes12 sa, Lanes12 sb,
+                            Lanes12 abs_a, Lanes12 vb) {
+    const Lanes12 abs_b = abs12(vb);
+    const Lanes12 ulp = lanes12(float(kHalfRounding));
+    const Lanes12 floor = lanes12(float(kHalfSubnormalRounding));
+    const Lanes12 da = abs_a * ulp + floor * lanes12(k.total_weight);
+    const Lanes12 db = abs_b * ulp + floor;
+    const Lanes12 values = lanes12(k.values_in_bound_units);
+    if constexpr (kLinfA)
+      if (k.shared_b)
+        term = min12(term, sa * (abs_b + db) * lanes12(k.linf_a_scale) + abs_b * da * values);
+    if constexpr (kLinfB)
+      if (!k.combined && k.shared_a)
+        term = min12(term, sb * (abs_a + da) * lanes12(k.linf_b_scale) + abs_a * db * values);
+    return term;
+  }
+
+  // One group of a side of a pair (see NarrowPairs::Side).
+  struct Side {
+    Lanes12 value, magnitude, share, rounding_units, bound;
+  };
+  template <bool kTexel>
+  static Side one_group(const std::uint32_t* w, int channels, bool shared, std::size_t codes,
+                        float texel_bound, float shared_bound, const float* step_magnitudes) {
+    const std::uint32_t* values_at = w + (kTexel ? 0 : 1);
+    Side s;
+    if (shared) {
+      Lanes12 steps;
+      s.value = shared_values(values_at, steps);
+      const Lanes12 step_share = steps * lanes12(step_magnitude<kTexel>(w, step_magnitudes));
+      s.magnitude = max12(s.value, step_share);
+      s.share = (s.value + step_share) * lanes12(0.5f);
+      s.rounding_units = step_share;
+      if constexpr (kTexel)
+        s.bound = steps * lanes12(shared_bound);
+      else
+        s.bound = bounds(w, channels, codes);
+      return s;
+    }
+    s.value = values(values_at, channels, 0);
+    s.rounding_units = s.share = s.magnitude = abs12(s.value);
+    if constexpr (kTexel)
+      s.bound = texel_bounds(s.magnitude, 1, texel_bound);
+    else
+      s.bound = bounds(w, channels, codes);
+    return s;
+  }
+
+  template <bool kTexelA, bool kTexelB>
+  static unsigned visit(const DescentConstants<CA, CB>& k, const std::uint32_t* wa,
+                        const std::uint32_t* wb, unsigned internal, Sums& sums) {
+    const std::uint32_t* values_a = wa + (kTexelA ? 0 : 1);
+    Side a;
+    Lanes12 stopping_bound = lanes12(0);
+    if constexpr (kFolded) {
+      a.value = values(values_a, CA, 0);
+      const Lanes12 half_magnitude = values(values_a, CA, 1);
+      a.share = a.magnitude = abs12(a.value) + (half_magnitude + half_magnitude);
+      a.bound = bounds(wa, CA, k.codes_a);
+      stopping_bound = bounds(wa, CA, k.codes_a + CA);
+    } else if constexpr (GW == 1) {
+      a = one_group<kTexelA>(wa, CA, CA == 3 && k.shared_a, k.codes_a, k.texel_bound_a,
+                             k.shared_bound_a, k.step_magnitudes_a);
+    } else {
+      a.value = a.magnitude = a.bound = lanes12(0);
+      for (int g = 0; g < GW; ++g) {
+        const Lanes12 v = values(values_a, CA, g);
+        a.value = a.value + lanes12(k.weight[g]) * v;
+        a.magnitude = a.magnitude + lanes12(k.abs_weight[g]) * abs12(v);
+        if constexpr (!kTexelA)
+          a.bound = a.bound + lanes12(k.abs_weight[g]) * bounds(wa, CA, k.codes_a + g * CA);
+      }
+      if constexpr (kTexelA) a.bound = texel_bounds(a.magnitude, k.total_weight, k.texel_bound_a);
+      a.share = a.magnitude;
+    }
+    const Side b = one_group<kTexelB>(wb, CB, kSharedWordsB || (CB == 3 && k.shared_b), k.codes_b,
+                                      k.texel_bound_b, k.shared_bound_b, k.step_magnitudes_b);
+    const Lanes12 product = a.value * b.value;
+    Lanes12 magnitude;
+    if constexpr (kFolded)  // see NarrowPairs::folded_magnitude
+      magnitude = (abs12(a.value) * b.rounding_units + a.share * abs12(b.value)) * lanes12(0.5f);
+    else
+      magnitude = a.share * b.share;
+    Lanes12 term = a.bound * b.bound;
+    if constexpr (kLinfA || kLinfB)
+      term = linf_terms(k, term, a.bound, b.bound, a.magnitude, b.magnitude);
+    if (kBound && k.targeted) {
+      Lanes12 allowed;
+      if (GW == 1 && !kFolded && !k.shared_a && !k.shared_b)
+        allowed = lanes12(k.per_product) * abs12(product) + lanes12_per_channel(k.allowed);
+      else  // the rounding scales with the magnitudes (groups', or shared words'), not |a b|
+        allowed = (lanes12(k.per_value) * abs12(product) - lanes12(k.per_magnitude) * magnitude) +
+                  lanes12_per_channel(k.allowed);
+      internal &= ~all_channels_at_most(term, allowed);
+    }
+    const __m128 internal_lanes = lanes_of(internal);
+    if constexpr (kFolded && kBound)
+      sums.bound = sums.bound + and12(internal_lanes, stopping_bound * b.bound);
+    sums.value[0] = sums.value[0] + andnot12(internal_lanes, product);
+    for (int g = 1; g < GA; ++g)
+      sums.value[g] = sums.value[g] + andnot12(internal_lanes, values(values_a, CA, g) * b.value);
+    if constexpr (!kBound) return internal;
+    sums.bound = sums.bound + andnot12(internal_lanes, term);
+    sums.magnitude = sums.magnitude + andnot12(internal_lanes, magnitude);
+    return internal;
+  }
+};
+
+#endif  // AVX2 without AVX-512
+
 #if defined(__AVX512F__) && defined(__AVX512BW__) && defined(__AVX512VL__)
 
 inline __m512 abs512(__m512 x) {
@@ -992,6 +1229,11 @@ GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, 
   using Pairs =
       std::conditional_t<C == 3,
                          WidePairs<CA, CB, GA, GW, kLinfA, kLinfB, kFolded, kSharedWordsB, kBound>,
+                         NarrowPairs<CA, CB, GA, GW, kLinfA, kLinfB, kFolded, kBound>>;
+#elif defined(__AVX2__)
+  using Pairs =
+      std::conditional_t<C == 3,
+                         MidPairs<CA, CB, GA, GW, kLinfA, kLinfB, kFolded, kSharedWordsB, kBound>,
                          NarrowPairs<CA, CB, GA, GW, kLinfA, kLinfB, kFolded, kBound>>;
 #else
   using Pairs = NarrowPairs<CA, CB, GA, GW, kLinfA, kLinfB, kFolded, kBound>;
