@@ -198,6 +198,24 @@ alignas(16) constexpr std::uint32_t kLaneMasks[16][4] = {
     {0, 0, 0, ~0u},   {~0u, 0, 0, ~0u},   {0, ~0u, 0, ~0u},   {~0u, ~0u, 0, ~0u},
     {0, 0, ~0u, ~0u}, {~0u, 0, ~0u, ~0u}, {0, ~0u, ~0u, ~0u}, {~0u, ~0u, ~0u, ~0u}};
 
+// kQueuedLanes[mask]: for each quadrant q whose bit is set in a 4-bit mask, in order, the lanes
+// q and 4 + q (its children's nodes of a and of b, in a register holding a's four and then b's);
+// lanes past them repeat lane 0.
+struct QueuedLanes {
+  alignas(32) std::int32_t lanes[16][8];
+  constexpr QueuedLanes() : lanes{} {
+    for (int mask = 0; mask < 16; ++mask) {
+      int n = 0;
+      for (int q = 0; q < 4; ++q)
+        if (mask >> q & 1) {
+          lanes[mask][n++] = q;
+          lanes[mask][n++] = 4 + q;
+        }
+    }
+  }
+};
+inline constexpr QueuedLanes kQueuedLanes;
+
 inline __m128 lanes_of(unsigned mask) {
   return _mm_load_ps(reinterpret_cast<const float*>(kLaneMasks[mask]));
 }
@@ -1186,14 +1204,24 @@ class PackedDescent {
       // quadrants are written one after the other, with room for all four.
       const __m128i ca = _mm_add_epi32(_mm_set1_epi32(int(la >> 4)), child_offsets(la));
       const __m128i cb = _mm_add_epi32(_mm_set1_epi32(int(lb >> 4)), child_offsets(lb));
-      const __m128i low = _mm_unpacklo_epi32(ca, cb), high = _mm_unpackhi_epi32(ca, cb);
       Pair* slot = next + queued;
 #if defined(__AVX512F__) && defined(__AVX512VL__)
+      const __m128i low = _mm_unpacklo_epi32(ca, cb), high = _mm_unpackhi_epi32(ca, cb);
       const __m256i four = _mm256_inserti128_si256(_mm256_castsi128_si256(low), high, 1);
       _mm256_storeu_si256(reinterpret_cast<__m256i*>(slot),
                           _mm256_maskz_compress_epi64(__mmask8(internal), four));
       queued += unsigned(std::popcount(internal));
+#elif defined(__AVX2__)
+      // The children of a's quadrants in the low half, b's in the high: quadrant q's pair is
+      // lanes q and 4 + q, gathered in order for the internal quadrants.
+      const __m256i both = _mm256_inserti128_si256(_mm256_castsi128_si256(ca), cb, 1);
+      _mm256_storeu_si256(
+          reinterpret_cast<__m256i*>(slot),
+          _mm256_permutevar8x32_epi32(both, _mm256_load_si256(reinterpret_cast<const __m256i*>(
+                                                kQueuedLanes.lanes[internal]))));
+      queued += unsigned(std::popcount(internal));
 #else
+      const __m128i low = _mm_unpacklo_epi32(ca, cb), high = _mm_unpackhi_epi32(ca, cb);
       _mm_storel_epi64(reinterpret_cast<__m128i*>(slot), low);
       slot += internal & 1;
       _mm_storel_epi64(reinterpret_cast<__m128i*>(slot), _mm_srli_si128(low, 8));
