@@ -445,7 +445,15 @@ PYBIND11_MODULE(basis, m) {
           "mantissas, bits 0-26, and a 5-bit exponent, bits 27-31), halves otherwise (empty for "
           "trees without exact texels).")
       .def(
-          "reconstruct", [](const Tree& t) { return grid_array(reconstruct(t.view)); },
+          "reconstruct",
+          [](const Tree& t) {
+            Grid grid;
+            {
+              py::gil_scoped_release release;
+              grid = reconstruct(t.view);
+            }
+            return grid_array(std::move(grid));
+          },
           "The piecewise-constant function at full resolution: float32 (groups, channels, N, N), "
           "each plane indexed [v, u] as project() takes it.")
       .def(
@@ -671,18 +679,23 @@ PYBIND11_MODULE(basis, m) {
             const std::vector<Vec3> i = to_vectors(wi, "wi"), o = to_vectors(wo, "wo");
             if (i.size() != o.size() && o.size() != 1)
               throw std::invalid_argument("wi and wo must hold as many directions (or wo one)");
-            py::array_t<double> out({py::ssize_t(i.size()), py::ssize_t(3)});
-            auto a = out.mutable_unchecked<2>();
             auto row = [](const char* name, std::size_t k) {
               return std::string(name) + "[" + std::to_string(k) + "]";
             };
-            for (std::size_t k = 0; k < i.size(); ++k) {
-              const std::size_t ko = o.size() == 1 ? 0 : k;
-              const Color f = evaluate(b.spec.brdf, to_direction(i[k], row("wi", k)),
-                                       to_direction(o[ko], row("wo", ko)));
-              for (int c = 0; c < 3; ++c)
-                a(py::ssize_t(k), c) = f[c];
+            std::vector<Color> values(i.size());
+            {
+              py::gil_scoped_release release;
+              for (std::size_t k = 0; k < i.size(); ++k) {
+                const std::size_t ko = o.size() == 1 ? 0 : k;
+                values[k] = evaluate(b.spec.brdf, to_direction(i[k], row("wi", k)),
+                                     to_direction(o[ko], row("wo", ko)));
+              }
             }
+            py::array_t<double> out({py::ssize_t(i.size()), py::ssize_t(3)});
+            auto a = out.mutable_unchecked<2>();
+            for (std::size_t k = 0; k < i.size(); ++k)
+              for (int c = 0; c < 3; ++c)
+                a(py::ssize_t(k), c) = values[k][c];
             return out;
           },
           py::arg("wi"), py::arg("wo"),
@@ -747,8 +760,14 @@ PYBIND11_MODULE(basis, m) {
       "reflect",
       [](const Table& table, const Tree& radiance, const std::array<double, 3>& wo, double accuracy,
          const std::string& interpolation, bool bound) {
-        return result(reflect(table.view, radiance.view, to_direction(to_vec3(wo), "wo"),
-                              {{accuracy, bound}, interpolation_of(interpolation)}));
+        const Vec3 direction = to_direction(to_vec3(wo), "wo");
+        const LookupOptions options{{accuracy, bound}, interpolation_of(interpolation)};
+        Convolution c;
+        {
+          py::gil_scoped_release release;
+          c = reflect(table.view, radiance.view, direction, options);
+        }
+        return result(c);
       },
       py::arg("table"), py::arg("radiance"), py::arg("wo") = std::array<double, 3>{0, 0, 1},
       py::arg("accuracy") = 0.0, py::arg("interpolation") = "hermite", py::arg("bound") = true,
@@ -774,9 +793,15 @@ PYBIND11_MODULE(basis, m) {
                                              "mode must be 'none', 'reparametrised' or "
                                                 "'compensated', got '" +
                                              mode + "'");
-        return result(reflect_tilted(table.view, radiance.view, to_direction(to_vec3(wo), "wo"),
-                                     {tilt[0], tilt[1]}, compensation,
-                                     {{accuracy, bound}, interpolation_of(interpolation)}));
+        const Vec3 direction = to_direction(to_vec3(wo), "wo");
+        const LookupOptions options{{accuracy, bound}, interpolation_of(interpolation)};
+        Convolution c;
+        {
+          py::gil_scoped_release release;
+          c = reflect_tilted(table.view, radiance.view, direction, {tilt[0], tilt[1]}, compensation,
+                             options);
+        }
+        return result(c);
       },
       py::arg("table"), py::arg("radiance"), py::arg("wo"), py::arg("tilt"),
       py::arg("mode") = "compensated", py::arg("accuracy") = 0.0,

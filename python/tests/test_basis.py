@@ -346,6 +346,57 @@ def test_tilted_lookups_take_reflects_options(made_by_tools):
         basis.reflect_tilted(table, tree, wo, tilt, accuracy=2)
 
 
+def test_long_calls_let_other_threads_run(made_by_tools):
+    """Brdf.evaluate, Tree.reconstruct, reflect and reflect_tilted work without the GIL: while a
+    long evaluate runs in one thread, another keeps running (its longest pause stays well under
+    the call's time, which it would match if the call held the GIL); and the four called from
+    several threads at once give what they give one call at a time."""
+    import threading
+    from concurrent.futures import ThreadPoolExecutor
+
+    brdf = basis.Brdf.from_json('{"model": "ggx", "f0": [0.95, 0.64, 0.54], "alpha": 0.2}')
+    rng = np.random.default_rng(3)
+    wi = rng.normal(size=(200_000, 3))
+    wi[:, 2] = np.abs(wi[:, 2]) + 0.01
+    wo = np.array([[0.3, 0.2, 0.9]])
+    # Enough directions that one call takes at least 0.2 s here.
+    while True:
+        start = time.perf_counter()
+        alone = brdf.evaluate(wi, wo)
+        took = time.perf_counter() - start
+        if took >= 0.2 or len(wi) >= 6_400_000:
+            break
+        wi = np.concatenate([wi, wi])
+    assert took >= 0.05, "evaluate too fast on this machine to tell"
+    result = {}
+    worker = threading.Thread(target=lambda: result.setdefault("f", brdf.evaluate(wi, wo)))
+    ticks = [time.perf_counter()]
+    worker.start()
+    while worker.is_alive():
+        ticks.append(time.perf_counter())
+    worker.join()
+    np.testing.assert_array_equal(result["f"], alone)
+    longest_pause = max(np.diff(ticks), default=0.0)
+    assert longest_pause < took / 2, f"paused {longest_pause:.3f} s in a call of {took:.3f} s"
+
+    d, _ = made_by_tools
+    table = basis.load(d / "phong.qt").table()
+    captures = basis.load(d / "captures.qt").captures()
+    trees = [captures.tree(k) for k in range(len(POINTS))]
+    calls = [lambda t=t: t.reconstruct() for t in trees]
+    calls += [lambda t=t: basis.reflect(table, t, (0.3, 0.2, 0.93)) for t in trees]
+    calls += [lambda t=t: basis.reflect_tilted(table, t, (0.3, 0.2, 0.93), (0.05, -0.02))
+              for t in trees]
+    calls *= 20
+    serial = [call() for call in calls]
+    with ThreadPoolExecutor(max_workers=4) as pool:
+        threaded = list(pool.map(lambda call: call(), calls))
+    for one, other in zip(serial, threaded):
+        for x, y in zip(one if isinstance(one, tuple) else (one,),
+                        other if isinstance(other, tuple) else (other,)):
+            np.testing.assert_array_equal(x, y)
+
+
 def test_more_threads_than_cores_run_quietly(capfd):
     """threads beyond the cores run on every core, without oneTBB's own warning on stderr."""
     brdf = basis.Brdf.from_json(SPEC)
