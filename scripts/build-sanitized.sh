@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # The sanitizer build in ./build-asan, after the set-up (which installs clang): clang,
 # AddressSanitizer + UndefinedBehaviorSanitizer on everything, and the libFuzzer targets (the
-# readers' sources carry fuzzer coverage). Without AVX-512: the convolution takes the SSE4.1
-# path of CPUs that lack it, which the Release build (AVX-512 where the machine has it) does
-# not. The tests run from it (scripts/test.sh) and so do the fuzz targets (scripts/fuzz.sh).
+# readers' sources carry fuzzer coverage). Without AVX-512 and AVX2: the convolution takes the
+# SSE4.1 path of CPUs that lack them, which the Release build (AVX-512 or AVX2, whichever the
+# machine has) does not. The tests run from it (scripts/test.sh) and so do the fuzz targets
+# (scripts/fuzz.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # Line tables only: reports keep file and line, and the build is faster than with full -g.
