@@ -14,8 +14,8 @@
 #include "basis/core/number_text.h"
 #include "scalar_descent.h"
 
-// The SIMD descent needs SSE4.1 and F16C; an AVX-512 (F, BW, VL) build also takes RGB pairs
-// twelve lanes at a time.
+// The SIMD descent needs SSE4.1 and F16C; an AVX-512 (F, BW, VL) build takes RGB pairs twelve
+// lanes at a time in one register, an AVX2 build in two.
 #if defined(__SSE4_1__) && defined(__F16C__)
 #include <immintrin.h>
 #endif
@@ -198,6 +198,7 @@ alignas(16) constexpr std::uint32_t kLaneMasks[16][4] = {
     {0, 0, 0, ~0u},   {~0u, 0, 0, ~0u},   {0, ~0u, 0, ~0u},   {~0u, ~0u, 0, ~0u},
     {0, 0, ~0u, ~0u}, {~0u, 0, ~0u, ~0u}, {0, ~0u, ~0u, ~0u}, {~0u, ~0u, ~0u, ~0u}};
 
+#if defined(__AVX2__) && !(defined(__AVX512F__) && defined(__AVX512VL__))
 // kQueuedLanes[mask]: for each quadrant q whose bit is set in a 4-bit mask, in order, the lanes
 // q and 4 + q (its children's nodes of a and of b, in a register holding a's four and then b's);
 // lanes past them repeat lane 0.
@@ -215,6 +216,7 @@ struct QueuedLanes {
   }
 };
 inline constexpr QueuedLanes kQueuedLanes;
+#endif
 
 inline __m128 lanes_of(unsigned mask) {
   return _mm_load_ps(reinterpret_cast<const float*>(kLaneMasks[mask]));
@@ -1093,9 +1095,9 @@ struct WidePairs {
 // level's pairs are visited in the order they were queued, and the pairs of their internal
 // quadrants queued for the next level, so that consecutive pairs do not depend on each other and,
 // nodes lying breadth first, each level's nodes are read in increasing address order. Each
-// pair's arithmetic is the policy's (SSE, or AVX-512 for RGB); sums are kept without the trees'
-// scales, applied once at the end, and a level's without its quadrants' area, applied once per
-// level.
+// pair's arithmetic is the policy's (SSE, or AVX-512 or AVX2 for RGB); sums are kept without the
+// trees' scales, applied once at the end, and a level's without its quadrants' area, applied once
+// per level.
 template <typename Pairs, int CA, int CB>
 class PackedDescent {
  public:
@@ -1246,8 +1248,8 @@ class PackedDescent {
 };
 
 // floor_weight > 0: a is a folded tree (folded_tree.h) whose terms' rounding that weight covers.
-// kSharedWordsB: b's values are shared-exponent words (WidePairs). Without kBound, the values
-// alone (the same sums) and a bound of +infinity.
+// kSharedWordsB: b's values are shared-exponent words (WidePairs, MidPairs). Without kBound, the
+// values alone (the same sums) and a bound of +infinity.
 template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB, bool kFolded = false,
           bool kSharedWordsB = false, bool kBound = true>
 GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, double accuracy,
