@@ -651,7 +651,7 @@ inline Lanes12 operator*(Lanes12 x, Lanes12 y) {
 inline Lanes12 lanes12(float v) {
   return {_mm256_set1_ps(v), _mm_set1_ps(v)};
 }
-// Channel c's value v in its four lanes.
+// v[c] in channel c's four lanes.
 inline Lanes12 lanes12_per_channel(const float* v) {
   return {_mm256_setr_ps(v[0], v[0], v[0], v[0], v[1], v[1], v[1], v[1]), _mm_set1_ps(v[2])};
 }
