@@ -150,6 +150,18 @@ Vec3 to_direction(const Vec3& v, const std::string& what) {
   return unit;
 }
 
+// The unit vectors along vectors[k], for every k; ValueError naming name[k] for the first that is
+// zero or not finite (the name made only then).
+std::vector<Vec3> to_directions(const std::vector<Vec3>& vectors, const char* name) {
+  std::vector<Vec3> units(vectors.size());
+  for (std::size_t k = 0; k < vectors.size(); ++k) {
+    units[k] = unit_direction(vectors[k]);
+    if (units[k] == Vec3::Zero())
+      to_direction(vectors[k], std::string(name) + "[" + std::to_string(k) + "]");
+  }
+  return units;
+}
+
 py::array_t<double> rgb_array(const Rgb& v) {
   py::array_t<double> out(3);
   for (int c = 0; c < 3; ++c)
@@ -679,23 +691,19 @@ PYBIND11_MODULE(basis, m) {
             const std::vector<Vec3> i = to_vectors(wi, "wi"), o = to_vectors(wo, "wo");
             if (i.size() != o.size() && o.size() != 1)
               throw std::invalid_argument("wi and wo must hold as many directions (or wo one)");
-            auto row = [](const char* name, std::size_t k) {
-              return std::string(name) + "[" + std::to_string(k) + "]";
-            };
-            std::vector<Color> values(i.size());
+            py::array_t<double> out({py::ssize_t(i.size()), py::ssize_t(3)});
+            // The array's memory is written without the GIL; the array itself is not touched.
+            auto a = out.mutable_unchecked<2>();
             {
               py::gil_scoped_release release;
+              const std::vector<Vec3> unit_i = to_directions(i, "wi"),
+                                      unit_o = to_directions(o, "wo");
               for (std::size_t k = 0; k < i.size(); ++k) {
-                const std::size_t ko = o.size() == 1 ? 0 : k;
-                values[k] = evaluate(b.spec.brdf, to_direction(i[k], row("wi", k)),
-                                     to_direction(o[ko], row("wo", ko)));
+                const Color f = evaluate(b.spec.brdf, unit_i[k], unit_o[o.size() == 1 ? 0 : k]);
+                for (int c = 0; c < 3; ++c)
+                  a(py::ssize_t(k), c) = f[c];
               }
             }
-            py::array_t<double> out({py::ssize_t(i.size()), py::ssize_t(3)});
-            auto a = out.mutable_unchecked<2>();
-            for (std::size_t k = 0; k < i.size(); ++k)
-              for (int c = 0; c < 3; ++c)
-                a(py::ssize_t(k), c) = values[k][c];
             return out;
           },
           py::arg("wi"), py::arg("wo"),
