@@ -10,6 +10,8 @@
 
 #if defined(__SSE4_1__) && defined(__F16C__)
 #include <immintrin.h>
+
+#include "packed_lanes.h"
 #endif
 
 namespace basis {
@@ -104,10 +106,6 @@ ScaledTerm scaled(const WeightedTerm& term) {
   return out;
 }
 
-__m128 abs_lanes(__m128 x) {
-  return _mm_andnot_ps(_mm_set1_ps(-0.0f), x);
-}
-
 // Node n of a term's tree, weighted, into `out` (written in place: a node built elsewhere and
 // copied would be read back, wide, from the narrower stores that made it).
 void read_node(const ScaledTerm& term, int n, int channels, WeightedNode& out) {
@@ -121,16 +119,11 @@ void read_node(const ScaledTerm& term, int n, int channels, WeightedNode& out) {
     __m128 value = _mm_setzero_ps(), magnitude = _mm_setzero_ps(), bound = _mm_setzero_ps();
     for (int g = 0; g < term.groups; ++g) {
       const int at = g * term.tree_channels + tc;
-      const __m128 v = _mm_mul_ps(
-          _mm_cvtph_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(words + 1 + 2 * at))),
-          _mm_set1_ps(term.value_weight[std::size_t(g)]));
+      const __m128 v = _mm_mul_ps(detail::load_halves(words + 1 + 2 * at),
+                                  _mm_set1_ps(term.value_weight[std::size_t(g)]));
       value = _mm_add_ps(value, v);
-      magnitude = _mm_add_ps(magnitude, abs_lanes(v));
-      // Bound code values (packed_tree.h): their float bits are (code << 20) + kBoundCodeBias.
-      const __m128i code_bits =
-          _mm_add_epi32(_mm_slli_epi32(_mm_cvtepu8_epi32(_mm_cvtsi32_si128(int(codes[at]))), 20),
-                        _mm_set1_epi32(int(kBoundCodeBias)));
-      bound = _mm_add_ps(bound, _mm_mul_ps(_mm_castsi128_ps(code_bits),
+      magnitude = _mm_add_ps(magnitude, detail::abs_ps(v));
+      bound = _mm_add_ps(bound, _mm_mul_ps(detail::load_bound_codes(codes + at),
                                            _mm_set1_ps(term.bound_weight[std::size_t(g)])));
     }
     out.value[c] = value;
@@ -266,7 +259,7 @@ PackedTree pack_folded(const std::vector<FoldedNode>& nodes, int resolution, int
   __m128 largest = _mm_setzero_ps();
   for (const FoldedNode& n : nodes)
     for (int c = 0; c < channels; ++c)
-      largest = _mm_max_ps(largest, _mm_max_ps(abs_lanes(n.value[c]), n.half_magnitude[c]));
+      largest = _mm_max_ps(largest, _mm_max_ps(detail::abs_ps(n.value[c]), n.half_magnitude[c]));
   float largest_value = 0;
   for (int q = 0; q < 4; ++q)
     largest_value = std::max(largest_value, lane(largest, q));
@@ -290,7 +283,7 @@ PackedTree pack_folded(const std::vector<FoldedNode>& nodes, int resolution, int
       _mm_storel_epi64(reinterpret_cast<__m128i*>(w + 1 + 2 * c), value);
       _mm_storel_epi64(reinterpret_cast<__m128i*>(w + 1 + 2 * (channels + c)), magnitude);
       const __m128 moved =
-          _mm_mul_ps(abs_lanes(_mm_sub_ps(_mm_cvtph_ps(value), scaled)), from_half);
+          _mm_mul_ps(detail::abs_ps(_mm_sub_ps(_mm_cvtph_ps(value), scaled)), from_half);
       const __m128 live =
           _mm_mul_ps(_mm_add_ps(nodes[n].live[c], moved), _mm_set1_ps(1 + 0x1p-20f));
       const __m128 stopped = _mm_mul_ps(nodes[n].stopped[c], _mm_set1_ps(1 + 0x1p-20f));
@@ -310,6 +303,34 @@ PackedTree pack_folded(const std::vector<FoldedNode>& nodes, int resolution, int
       words[n * stride + codes_at + k] = bound_codes_at_least(
           _mm_loadu_ps(bounds[n * std::size_t(2 * channels) + k].data()), out.scales.bound_scale);
   out.words = std::move(words);
+  return out;
+}
+
+// FoldedTree::descent_nodes of a packed folded tree: its values and bound codes decoded as the
+// descents decode them, and the shares summed as they sum them.
+std::vector<std::uint32_t> descent_nodes(const PackedTree& tree) {
+  const PackedTreeView view = tree.view();
+  const int channels = tree.shape.channels;
+  const std::size_t stride = 1 + 16 * std::size_t(channels), block = 4 * std::size_t(channels);
+  const std::size_t codes_at = 1 + std::size_t(tree.shape.value_words());
+  std::vector<std::uint32_t> out(std::size_t(view.node_count()) * stride);
+  for (int n = 0; n < view.node_count(); ++n) {
+    const std::uint32_t* w = view.node(n);
+    std::uint32_t* node = out.data() + std::size_t(n) * stride;
+    node[0] = w[0];
+    float* floats = reinterpret_cast<float*>(node + 1);
+    for (int c = 0; c < channels; ++c) {
+      const __m128 value = detail::load_halves(w + 1 + 2 * c);
+      const __m128 half_magnitude = detail::load_halves(w + 1 + 2 * (channels + c));
+      const __m128 share =
+          _mm_add_ps(detail::abs_ps(value), _mm_add_ps(half_magnitude, half_magnitude));
+      _mm_storeu_ps(floats + 4 * c, value);
+      _mm_storeu_ps(floats + block + 4 * c, share);
+      _mm_storeu_ps(floats + 2 * block + 4 * c, detail::load_bound_codes(w + codes_at + c));
+      _mm_storeu_ps(floats + 3 * block + 4 * c,
+                    detail::load_bound_codes(w + codes_at + channels + c));
+    }
+  }
   return out;
 }
 
@@ -340,7 +361,7 @@ FoldedTree fold(std::span<const WeightedTerm> terms) {
       lost_values += 65504.0 * std::abs(double(w * t.tree.scales().value_scale) - value_weight) +
                      (std::abs(value_weight) < 0x1p-102 ? 0x1p-150 : 0);
     }
-  FoldedTree folded{pack_folded(fold_nodes(terms, channels), resolution, channels), 1};
+  FoldedTree folded{pack_folded(fold_nodes(terms, channels), resolution, channels), 1, {}};
   // The terms' subnormal rounding, in the folded tree's value units (2^-25 value_scale), and what
   // the products lost, twice (their magnitudes, which the rounding terms take, lost as much).
   const double value_scale = folded.tree.scales.value_scale;
@@ -352,6 +373,7 @@ FoldedTree fold(std::span<const WeightedTerm> terms) {
   }
   folded.floor_weight += float(2 * lost_values / (kHalfSubnormalRounding * value_scale));
   folded.floor_weight = std::nextafter(folded.floor_weight, INFINITY);
+  folded.descent_nodes = descent_nodes(folded.tree);
   return folded;
 #else
   throw std::logic_error("folding trees needs SSE4.1 and F16C (folding_available())");

@@ -18,6 +18,8 @@
 // lanes at a time in one register, an AVX2 build in two.
 #if defined(__SSE4_1__) && defined(__F16C__)
 #include <immintrin.h>
+
+#include "packed_lanes.h"
 #endif
 
 namespace basis {
@@ -227,20 +229,13 @@ inline __m128i child_offsets(std::uint32_t link) {
   return _mm_load_si128(reinterpret_cast<const __m128i*>(kChildOffsets[link & 15u]));
 }
 
-inline __m128 abs_ps(__m128 x) {
-  return _mm_andnot_ps(_mm_set1_ps(-0.0f), x);
-}
+using detail::abs_ps;
+using detail::load_bound_codes;
+using detail::load_halves;
 
-// The four halves at p as floats.
-inline __m128 load_halves(const void* p) {
-  return _mm_cvtph_ps(_mm_loadl_epi64(static_cast<const __m128i*>(p)));
-}
-
-// The four bound codes of the word at p as the floats they stand for (before the tree's scale).
-inline __m128 load_bound_codes(const std::uint32_t* p) {
-  const __m128i codes = _mm_cvtepu8_epi32(_mm_cvtsi32_si128(int(*p)));
-  return _mm_castsi128_ps(
-      _mm_add_epi32(_mm_slli_epi32(codes, 20), _mm_set1_epi32(int(kBoundCodeBias))));
+// Four floats at p (FoldedTree::descent_nodes: float bits in words).
+inline __m128 load_floats(const std::uint32_t* p) {
+  return _mm_loadu_ps(reinterpret_cast<const float*>(p));
 }
 
 // The steps of four shared-exponent words (shared_exponent.h): 2^(exponent - 24) each.
@@ -284,6 +279,13 @@ inline float lane_sum(__m128 v) {
 template <int CA, int CB>
 struct DescentConstants {
   static constexpr int C = CA > CB ? CA : CB;
+  // Words of a node of FoldedTree::descent_nodes: its link, then values, shares, bounds and
+  // stopping bounds, CA x 4 floats each.
+  static constexpr std::size_t kDecodedFoldWords = 1 + 16 * CA;
+  // Words of a node of shared-exponent words (RGB, one group and its bounds: packed_tree.h),
+  // full and texel, and where a full one's bound codes start.
+  static constexpr std::size_t kSharedNodeWords = 1 + 4 + 3, kSharedTexelWords = 4,
+                               kSharedCodes = 1 + 4;
   const std::uint32_t* a;
   const std::uint32_t* b;
   std::size_t words_a, words_b;
@@ -323,8 +325,10 @@ struct DescentConstants {
   float per_value, per_magnitude;
   float allowed[C];
 
+  // folded_nodes: a's nodes decoded (FoldedTree::descent_nodes), read in place of its words.
   DescentConstants(const PackedTreeView& ta, const PackedTreeView& tb, double accuracy,
-                   std::span<const float> weights = {})
+                   std::span<const float> weights = {},
+                   std::span<const std::uint32_t> folded_nodes = {})
       : a(ta.words().data()),
         b(tb.words().data()),
         words_a(ta.shape().words_per_node()),
@@ -350,6 +354,10 @@ struct DescentConstants {
         step_magnitudes_a{kSharedStepMagnitude, kSharedStepMagnitude * ta.derived_rounding()},
         step_magnitudes_b{kSharedStepMagnitude, kSharedStepMagnitude * tb.derived_rounding()},
         targeted(accuracy > 0) {
+    if (!folded_nodes.empty()) {  // a folded tree has no texel nodes
+      a = texels_a = folded_nodes.data();
+      words_a = texel_words_a = kDecodedFoldWords;
+    }
     if (!weights.empty()) {
       combined = weights.size() > 1;
       total_weight = 0;
@@ -446,6 +454,9 @@ template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB, bool kFolded
           bool kBound = true>
 struct NarrowPairs {
   static constexpr int C = CA > CB ? CA : CB;
+  // A folded a is read from its decoded nodes (FoldedTree::descent_nodes).
+  static constexpr bool kDecodedFold = true;
+  static constexpr bool kFoldedA = kFolded, kSharedB = false;
   struct Sums {
     __m128 value[GA][C];
     __m128 bound[C];      // product terms, in units of the bound scales
@@ -552,14 +563,12 @@ struct NarrowPairs {
     for (int c = 0; c < C; ++c) {
       const int ca = CA == 1 ? 0 : c;
       Side a;
-      __m128 stopping_bound = _mm_setzero_ps(), half_magnitude = _mm_setzero_ps();
-      if constexpr (kFolded) {
-        a.value = load_halves(values_a + 2 * ca);
-        half_magnitude = load_halves(values_a + 2 * (CA + ca));
-        a.share = a.magnitude =
-            _mm_add_ps(abs_ps(a.value), _mm_add_ps(half_magnitude, half_magnitude));
-        a.bound = load_bound_codes(wa + k.codes_a + ca);
-        stopping_bound = load_bound_codes(wa + k.codes_a + CA + ca);
+      __m128 stopping_bound = _mm_setzero_ps();
+      if constexpr (kFolded) {  // decoded: values, shares, bounds, stopping bounds
+        a.value = load_floats(values_a + 4 * ca);
+        a.share = a.magnitude = load_floats(values_a + 4 * (CA + ca));
+        a.bound = load_floats(values_a + 4 * (2 * CA + ca));
+        stopping_bound = load_floats(values_a + 4 * (3 * CA + ca));
       } else if constexpr (GW == 1) {
         a = one_channel<kTexelA>(wa, ca, shared_a, words_a, steps_a, k.codes_a, k.texel_bound_a,
                                  k.shared_bound_a, k.step_magnitudes_a);
@@ -692,6 +701,9 @@ template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB, bool kFolded
           bool kSharedWordsB = false, bool kBound = true>
 struct MidPairs {
   static constexpr int C = 3;
+  // A folded a is read from its decoded nodes (FoldedTree::descent_nodes).
+  static constexpr bool kDecodedFold = true;
+  static constexpr bool kFoldedA = kFolded, kSharedB = kSharedWordsB;
   struct Sums {
     Lanes12 value[GA];
     Lanes12 bound = lanes12(0);
@@ -723,6 +735,11 @@ struct MidPairs {
     if (channels == 1) return lanes12_grey(load_halves(p));
     return {_mm256_cvtph_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(p))),
             load_halves(p + 4)};
+  }
+  // The floats of a node of `channels` channels at p (FoldedTree::descent_nodes).
+  static Lanes12 floats(const std::uint32_t* p, int channels) {
+    if (channels == 1) return lanes12_grey(load_floats(p));
+    return {_mm256_loadu_ps(reinterpret_cast<const float*>(p)), load_floats(p + 8)};
   }
   // The bound codes of a node of `channels` channels at word offset `codes`.
   static Lanes12 bounds(const std::uint32_t* w, int channels, std::size_t codes) {
@@ -810,12 +827,11 @@ struct MidPairs {
     const std::uint32_t* values_a = wa + (kTexelA ? 0 : 1);
     Side a;
     Lanes12 stopping_bound = lanes12(0);
-    if constexpr (kFolded) {
-      a.value = values(values_a, CA, 0);
-      const Lanes12 half_magnitude = values(values_a, CA, 1);
-      a.share = a.magnitude = abs12(a.value) + (half_magnitude + half_magnitude);
-      a.bound = bounds(wa, CA, k.codes_a);
-      stopping_bound = bounds(wa, CA, k.codes_a + CA);
+    if constexpr (kFolded) {  // decoded: values, shares, bounds, stopping bounds
+      a.value = floats(values_a, CA);
+      a.share = a.magnitude = floats(values_a + 4 * CA, CA);
+      a.bound = floats(values_a + 8 * CA, CA);
+      stopping_bound = floats(values_a + 12 * CA, CA);
     } else if constexpr (GW == 1) {
       a = one_group<kTexelA>(wa, CA, CA == 3 && k.shared_a, k.codes_a, k.texel_bound_a,
                              k.shared_bound_a, k.step_magnitudes_a);
@@ -831,13 +847,16 @@ struct MidPairs {
       if constexpr (kTexelA) a.bound = texel_bounds(a.magnitude, k.total_weight, k.texel_bound_a);
       a.share = a.magnitude;
     }
-    const Side b = one_group<kTexelB>(wb, CB, kSharedWordsB || (CB == 3 && k.shared_b), k.codes_b,
-                                      k.texel_bound_b, k.shared_bound_b, k.step_magnitudes_b);
+    const Side b = one_group<kTexelB>(wb, CB, kSharedWordsB || (CB == 3 && k.shared_b),
+                                      kSharedWordsB ? k.kSharedCodes : k.codes_b, k.texel_bound_b,
+                                      k.shared_bound_b, k.step_magnitudes_b);
     const Lanes12 product = a.value * b.value;
     Lanes12 magnitude;
-    if constexpr (kFolded)  // see NarrowPairs::folded_magnitude
-      magnitude = (abs12(a.value) * b.rounding_units + a.share * abs12(b.value)) * lanes12(0.5f);
-    else
+    if constexpr (kFolded) {  // see NarrowPairs::folded_magnitude
+      // Shared-exponent values are >= 0 (+0 included): their magnitude is themselves.
+      const Lanes12 abs_b = kSharedWordsB ? b.value : abs12(b.value);
+      magnitude = (abs12(a.value) * b.rounding_units + a.share * abs_b) * lanes12(0.5f);
+    } else
       magnitude = a.share * b.share;
     Lanes12 term = a.bound * b.bound;
     if constexpr (kLinfA || kLinfB)
@@ -909,6 +928,9 @@ template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB, bool kFolded
           bool kSharedWordsB = false, bool kBound = true>
 struct WidePairs {
   static constexpr int C = 3;
+  // A folded a is read from its packed words (halves and bound codes).
+  static constexpr bool kDecodedFold = false;
+  static constexpr bool kFoldedA = kFolded, kSharedB = kSharedWordsB;
   static constexpr __mmask16 kLanes = 0x0fff;
   struct Sums {
     __m512 value[GA];
@@ -1042,8 +1064,9 @@ struct WidePairs {
       if constexpr (kTexelA) a.bound = texel_bounds(a.magnitude, k.total_weight, k.texel_bound_a);
       a.share = a.magnitude;
     }
-    const Side b = one_group<kTexelB>(wb, CB, kSharedWordsB || (CB == 3 && k.shared_b), k.codes_b,
-                                      k.texel_bound_b, k.shared_bound_b, k.step_magnitudes_b);
+    const Side b = one_group<kTexelB>(wb, CB, kSharedWordsB || (CB == 3 && k.shared_b),
+                                      kSharedWordsB ? k.kSharedCodes : k.codes_b, k.texel_bound_b,
+                                      k.shared_bound_b, k.step_magnitudes_b);
     const __m512 product = _mm512_mul_ps(a.value, b.value);
     __m512 magnitude;
     if constexpr (kFolded) {  // see NarrowPairs::folded_magnitude
@@ -1104,8 +1127,8 @@ class PackedDescent {
   using Sums = typename Pairs::Sums;
 
   PackedDescent(const PackedTreeView& a, const PackedTreeView& b, double accuracy,
-                std::span<const float> weights)
-      : k_(a, b, accuracy, weights) {}
+                std::span<const float> weights, std::span<const std::uint32_t> folded_nodes = {})
+      : k_(a, b, accuracy, weights, folded_nodes) {}
 
   Sums run(std::uint32_t root_a, std::uint32_t root_b, float quadrant_area, int depth) const {
     if (depth > kMaxTreeLevels) throw std::runtime_error("quadtree deeper than its resolution");
@@ -1155,6 +1178,13 @@ class PackedDescent {
     alignas(32) Pair pairs[2][kLevelPairs];
   };
 
+  // Words of a folded a's decoded node where the policy reads them (0 otherwise), and of b's
+  // shared-exponent nodes, full and texel.
+  static constexpr std::size_t kDecodedStrideA =
+      Pairs::kFoldedA && Pairs::kDecodedFold ? DescentConstants<CA, CB>::kDecodedFoldWords : 0;
+  static constexpr std::size_t kSharedWords[2] = {DescentConstants<CA, CB>::kSharedNodeWords,
+                                                  DescentConstants<CA, CB>::kSharedTexelWords};
+
   LevelNodes level_nodes(int depth) const {
     const bool texel_a = depth == k_.texel_depth_a, texel_b = depth == k_.texel_depth_b;
     return {texel_a ? k_.texels_a : k_.a, texel_b ? k_.texels_b : k_.b,
@@ -1175,9 +1205,13 @@ class PackedDescent {
     Sums level_sums, nested;
     unsigned queued = 0;
     const LevelNodes nodes = level_nodes(depth), children_nodes = level_nodes(depth + 1);
+    // Strides the policy fixes (a folded a's decoded nodes, b's shared-exponent nodes) are
+    // constants, so that a pair's addresses take no multiplication by a value held in memory.
+    const std::size_t stride_a = kDecodedStrideA ? kDecodedStrideA : nodes.stride_a;
+    const std::size_t stride_b = Pairs::kSharedB ? kSharedWords[kTexelB] : nodes.stride_b;
     for (unsigned i = 0; i < count; ++i) {
-      const std::uint32_t* wa = nodes.a + std::size_t(pairs[i].a) * nodes.stride_a;
-      const std::uint32_t* wb = nodes.b + std::size_t(pairs[i].b) * nodes.stride_b;
+      const std::uint32_t* wa = nodes.a + std::size_t(pairs[i].a) * stride_a;
+      const std::uint32_t* wb = nodes.b + std::size_t(pairs[i].b) * stride_b;
       if constexpr (kTexelA || kTexelB) {
         // A texel node has no children: nothing goes on.
         Pairs::template visit<kTexelA, kTexelB>(k, wa, wb, 0, level_sums);
@@ -1247,13 +1281,14 @@ class PackedDescent {
   DescentConstants<CA, CB> k_;
 };
 
-// floor_weight > 0: a is a folded tree (folded_tree.h) whose terms' rounding that weight covers.
-// kSharedWordsB: b's values are shared-exponent words (WidePairs, MidPairs). Without kBound, the
-// values alone (the same sums) and a bound of +infinity.
+// kFolded: a is folded->tree (folded_tree.h), whose terms' rounding folded->floor_weight covers,
+// read from its decoded nodes where the policy takes them (kDecodedFold). kSharedWordsB: b's values
+// are shared-exponent words (WidePairs, MidPairs). Without kBound, the values alone (the same sums)
+// and a bound of +infinity.
 template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB, bool kFolded = false,
           bool kSharedWordsB = false, bool kBound = true>
 GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, double accuracy,
-                              std::span<const float> weights, float floor_weight = 0) {
+                              std::span<const float> weights, const FoldedTree* folded = nullptr) {
   constexpr int C = CA > CB ? CA : CB;
 #if defined(__AVX512F__) && defined(__AVX512BW__) && defined(__AVX512VL__)
   using Pairs =
@@ -1268,8 +1303,17 @@ GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, 
 #else
   using Pairs = NarrowPairs<CA, CB, GA, GW, kLinfA, kLinfB, kFolded, kBound>;
 #endif
-  PackedDescent<Pairs, CA, CB> descent(a, b, accuracy, weights);
-  if constexpr (kFolded) descent.fold(floor_weight);
+  std::span<const std::uint32_t> folded_nodes;
+  if constexpr (kFolded && Pairs::kDecodedFold) folded_nodes = folded->descent_nodes;
+  if constexpr (kSharedWordsB) {
+    using K = DescentConstants<CA, CB>;
+    if (std::size_t(b.shape().words_per_node()) != K::kSharedNodeWords ||
+        std::size_t(b.shape().words_per_texel_node()) != K::kSharedTexelWords ||
+        std::size_t(1 + b.shape().value_words()) != K::kSharedCodes)
+      throw std::logic_error("a tree of shared-exponent words laid out otherwise");
+  }
+  PackedDescent<Pairs, CA, CB> descent(a, b, accuracy, weights, folded_nodes);
+  if constexpr (kFolded) descent.fold(folded->floor_weight);
   const typename Pairs::Sums sums = descent.run(0, 0, 0.25f, 0);
   const DescentConstants<CA, CB>& k = descent.constants();
   // Results below the normal floats lose up to 2^-150 an operation, in the units they are
@@ -1303,11 +1347,10 @@ GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, 
   return result;
 }
 
-// kFolded: a is a folded tree (l2 bounds) whose terms' rounding floor_weight covers. kBound:
-// see descend_simd.
+// kFolded: a is folded->tree (see descend_simd). kBound: see descend_simd.
 template <int GA, int GW, bool kFolded = false, bool kBound = true>
 GroupConvolution dispatch_simd(const PackedTreeView& a, const PackedTreeView& b, double accuracy,
-                               std::span<const float> weights, float floor_weight = 0) {
+                               std::span<const float> weights, const FoldedTree* folded = nullptr) {
   const int ca = a.shape().channels, cb = b.shape().channels;
   const bool la = a.shape().bounds == BoundKind::linf, lb = b.shape().bounds == BoundKind::linf;
   auto by_kinds = [&]<int CA, int CB>() {
@@ -1320,16 +1363,17 @@ GroupConvolution dispatch_simd(const PackedTreeView& a, const PackedTreeView& b,
                                                                                weights);
     }
     if (lb)
-      return descend_simd<CA, CB, GA, GW, false, true, kFolded, false, kBound>(
-          a, b, accuracy, weights, floor_weight);
-    // A batch's folded lookups against captures (shared-exponent words, RGB): the encoding
-    // known at compile time spares every pair a branch and the merge of its two sides.
-    if constexpr (kFolded && CB == 3)
+      return descend_simd<CA, CB, GA, GW, false, true, kFolded, false, kBound>(a, b, accuracy,
+                                                                               weights, folded);
+    // Lookups against captures (shared-exponent words, RGB), a batch's folded ones and single
+    // entries: the encoding known at compile time spares every pair a branch and the merge of
+    // its two sides, and the node strides become constants.
+    if constexpr ((kFolded || (GA == 1 && GW == 1)) && CB == 3)
       if (b.shape().shared_values())
-        return descend_simd<CA, CB, GA, GW, false, false, true, true, kBound>(
-            a, b, accuracy, weights, floor_weight);
-    return descend_simd<CA, CB, GA, GW, false, false, kFolded, false, kBound>(
-        a, b, accuracy, weights, floor_weight);
+        return descend_simd<CA, CB, GA, GW, false, false, kFolded, true, kBound>(a, b, accuracy,
+                                                                                 weights, folded);
+    return descend_simd<CA, CB, GA, GW, false, false, kFolded, false, kBound>(a, b, accuracy,
+                                                                              weights, folded);
   };
   if (ca == 1 && cb == 1) return by_kinds.template operator()<1, 1>();
   if (ca == 1) return by_kinds.template operator()<1, 3>();
@@ -1341,9 +1385,10 @@ GroupConvolution dispatch_simd(const PackedTreeView& a, const PackedTreeView& b,
 template <int GA, int GW, bool kFolded = false>
 GroupConvolution dispatch_simd_bound_if(bool bound, const PackedTreeView& a,
                                         const PackedTreeView& b, double accuracy,
-                                        std::span<const float> weights, float floor_weight = 0) {
-  if (bound) return dispatch_simd<GA, GW, kFolded>(a, b, accuracy, weights, floor_weight);
-  return dispatch_simd<GA, GW, kFolded, false>(a, b, accuracy, weights, floor_weight);
+                                        std::span<const float> weights,
+                                        const FoldedTree* folded = nullptr) {
+  if (bound) return dispatch_simd<GA, GW, kFolded>(a, b, accuracy, weights, folded);
+  return dispatch_simd<GA, GW, kFolded, false>(a, b, accuracy, weights, folded);
 }
 
 #endif  // SSE4.1 and F16C
@@ -1419,9 +1464,15 @@ Convolution convolve(const FoldedTree& a, const PackedTreeView& b,
   check_compatible(a.tree.shape, b.shape());
   check_options(options);
 #if defined(__SSE4_1__) && defined(__F16C__)
-  return result_of(dispatch_simd_bound_if<1, 1, true>(options.bound, a.tree.view(), b,
-                                                      options.accuracy, {}, a.floor_weight),
-                   options);
+  const std::size_t decoded_words =
+      std::size_t(a.tree.node_count()) * (1 + 16 * std::size_t(a.tree.shape.channels));
+  if (a.descent_nodes.size() != decoded_words)
+    throw std::invalid_argument(
+        "a folded tree whose decoded nodes do not match it (made other "
+        "than by fold())");
+  return result_of(
+      dispatch_simd_bound_if<1, 1, true>(options.bound, a.tree.view(), b, options.accuracy, {}, &a),
+      options);
 #else
   (void)options;
   throw std::logic_error("convolving a folded tree needs SSE4.1 and F16C (folding_available())");

@@ -4,12 +4,14 @@
 // are the certified descent's; what cannot fold is refused.
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <random>
 #include <vector>
 
 #include "basis/core/folded_tree.h"
+#include "basis/core/half.h"
 #include "basis/core/projection.h"
 #include "support/test_functions.h"
 
@@ -153,6 +155,45 @@ TEST(FoldedTree, ATermThatStopsEarlyKeepsItsBound) {
   // The product differs from the trees' by the checkerboard's correlation with the light.
   EXPECT_GT(std::abs(result.value[0] - texels), 0.05 * texels);
   EXPECT_LE(std::abs(result.value[0] - texels), result.bound[0]);
+}
+
+// The decoded nodes the descents read are the packed tree's values, shares and bounds, decoded
+// one by one here through the view (half_to_float, bound_code_value), not by the fold's SIMD;
+// and a folded tree whose decoded nodes do not match it is refused, not read out of bounds.
+TEST(FoldedTree, DecodedNodesAreThePackedTreesAndMustMatchIt) {
+  for (const int channels : {1, 3}) {
+    const std::vector<Term> made = make_terms(channels, 2);
+    std::vector<WeightedTerm> terms;
+    for (const Term& t : made)
+      terms.push_back({t.tree.view(), t.weights, t.groups});
+    const FoldedTree folded = fold(terms);
+    const PackedTreeView view = folded.tree.view();
+    const int c3 = view.shape().channels;
+    ASSERT_EQ(c3, channels);
+    const std::size_t stride = 1 + 16 * std::size_t(c3);
+    ASSERT_EQ(folded.descent_nodes.size(), std::size_t(view.node_count()) * stride);
+    for (int n = 0; n < view.node_count(); ++n) {
+      const std::uint32_t* node = folded.descent_nodes.data() + std::size_t(n) * stride;
+      ASSERT_EQ(node[0], view.link(n));
+      const auto at = [&](int block, int c, int q) {
+        return std::bit_cast<float>(node[1 + std::size_t(block * 4 * c3 + 4 * c + q)]);
+      };
+      for (int c = 0; c < c3; ++c)
+        for (int q = 0; q < 4; ++q) {
+          const float value = half_to_float(view.halves(n)[4 * c + q]);
+          const float half_magnitude = half_to_float(view.halves(n)[4 * (c3 + c) + q]);
+          EXPECT_EQ(at(0, c, q), value);
+          EXPECT_EQ(at(1, c, q), std::abs(value) + (half_magnitude + half_magnitude));
+          EXPECT_EQ(at(2, c, q), bound_code_value(view.bound_code(n, 0, c, q)));
+          EXPECT_EQ(at(3, c, q), bound_code_value(view.bound_code(n, 1, c, q)));
+        }
+    }
+    FoldedTree stripped = folded;
+    stripped.descent_nodes.pop_back();
+    EXPECT_THROW(convolve(stripped, made[0].tree.view()), std::invalid_argument);
+    stripped.descent_nodes.clear();
+    EXPECT_THROW(convolve(stripped, made[0].tree.view()), std::invalid_argument);
+  }
 }
 
 // Rounding at its worst: each term's half, the folded sum's own half and the light's half all

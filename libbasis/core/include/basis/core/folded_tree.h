@@ -4,7 +4,9 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <span>
+#include <vector>
 
 #include "basis/core/convolution.h"
 #include "basis/core/packed_tree.h"
@@ -37,6 +39,13 @@ struct FoldedTree {
   // (sum_t sum_g |w| value_scale_t / value_scale), plus the folded values' own and what the
   // fold's float products lost below the normal floats.
   float floor_weight = 1;
+  // The nodes decoded once for the SSE4.1 and AVX2 descents, so that no pair decodes them again:
+  // per node its link word, then four blocks of channels x 4 floats (channel-major, as bits):
+  // its values, its shares (|value| + 2 x group 1's value: the magnitude its rounding scales
+  // with), its bounds and the bounds of the terms that stop where the sum goes on, in the
+  // packed tree's units (before its scales), exactly the floats those descents would decode from
+  // `tree`. 1 + 16 x channels words a node.
+  std::vector<std::uint32_t> descent_nodes;
 };
 
 // Whether the library was built to convolve folded trees (it needs SSE4.1 and F16C), whatever
