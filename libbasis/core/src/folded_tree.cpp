@@ -311,7 +311,8 @@ PackedTree pack_folded(const std::vector<FoldedNode>& nodes, int resolution, int
 std::vector<std::uint32_t> descent_nodes(const PackedTree& tree) {
   const PackedTreeView view = tree.view();
   const int channels = tree.shape.channels;
-  const std::size_t stride = 1 + 16 * std::size_t(channels), block = 4 * std::size_t(channels);
+  const std::size_t stride = FoldedTree::descent_words(channels);
+  const std::size_t block = 4 * std::size_t(channels);  // floats of one block
   const std::size_t codes_at = 1 + std::size_t(tree.shape.value_words());
   std::vector<std::uint32_t> out(std::size_t(view.node_count()) * stride);
   for (int n = 0; n < view.node_count(); ++n) {

@@ -281,7 +281,7 @@ struct DescentConstants {
   static constexpr int C = CA > CB ? CA : CB;
   // Words of a node of FoldedTree::descent_nodes: its link, then values, shares, bounds and
   // stopping bounds, CA x 4 floats each.
-  static constexpr std::size_t kDecodedFoldWords = 1 + 16 * CA;
+  static constexpr std::size_t kDecodedFoldWords = FoldedTree::descent_words(CA);
   // Words of a node of shared-exponent words (RGB, one group and its bounds: packed_tree.h),
   // full and texel, and where a full one's bound codes start.
   static constexpr std::size_t kSharedNodeWords = 1 + 4 + 3, kSharedTexelWords = 4,
@@ -289,7 +289,9 @@ struct DescentConstants {
   const std::uint32_t* a;
   const std::uint32_t* b;
   std::size_t words_a, words_b;
-  std::size_t codes_a, codes_b;  // word offset of the bound codes in a node
+  // Word offset of the bound codes in a node (a folded a's decoded nodes have none: their
+  // policies read floats, and codes_a is not used for them).
+  std::size_t codes_a, codes_b;
   // Texel nodes of exact texels (values alone, nodes from texel_start on, all of the last level
   // and only it): their depth (-1 for a tree without them), the words of one, where node n of
   // them lies (texels_a + n x texel_words_a), and the factor that brings their halves' rounding
@@ -456,6 +458,7 @@ struct NarrowPairs {
   static constexpr int C = CA > CB ? CA : CB;
   // A folded a is read from its decoded nodes (FoldedTree::descent_nodes).
   static constexpr bool kDecodedFold = true;
+  // The flags PackedDescent reads: a is folded; b holds shared-exponent words.
   static constexpr bool kFoldedA = kFolded, kSharedB = false;
   struct Sums {
     __m128 value[GA][C];
@@ -703,6 +706,7 @@ struct MidPairs {
   static constexpr int C = 3;
   // A folded a is read from its decoded nodes (FoldedTree::descent_nodes).
   static constexpr bool kDecodedFold = true;
+  // The flags PackedDescent reads: a is folded; b holds shared-exponent words.
   static constexpr bool kFoldedA = kFolded, kSharedB = kSharedWordsB;
   struct Sums {
     Lanes12 value[GA];
@@ -930,6 +934,7 @@ struct WidePairs {
   static constexpr int C = 3;
   // A folded a is read from its packed words (halves and bound codes).
   static constexpr bool kDecodedFold = false;
+  // The flags PackedDescent reads: a is folded; b holds shared-exponent words.
   static constexpr bool kFoldedA = kFolded, kSharedB = kSharedWordsB;
   static constexpr __mmask16 kLanes = 0x0fff;
   struct Sums {
@@ -1465,11 +1470,11 @@ Convolution convolve(const FoldedTree& a, const PackedTreeView& b,
   check_options(options);
 #if defined(__SSE4_1__) && defined(__F16C__)
   const std::size_t decoded_words =
-      std::size_t(a.tree.node_count()) * (1 + 16 * std::size_t(a.tree.shape.channels));
+      std::size_t(a.tree.node_count()) * FoldedTree::descent_words(a.tree.shape.channels);
   if (a.descent_nodes.size() != decoded_words)
     throw std::invalid_argument(
-        "a folded tree whose decoded nodes do not match it (made other "
-        "than by fold())");
+        "a folded tree without its decoded nodes, one for each of its nodes (a FoldedTree made "
+        "other than by fold())");
   return result_of(
       dispatch_simd_bound_if<1, 1, true>(options.bound, a.tree.view(), b, options.accuracy, {}, &a),
       options);

@@ -23,6 +23,7 @@ inline __m128 load_bound_codes(const std::uint32_t* p) {
       _mm_add_epi32(_mm_slli_epi32(codes, 20), _mm_set1_epi32(int(kBoundCodeBias))));
 }
 
+// |x| in each lane (the sign bit cleared).
 inline __m128 abs_ps(__m128 x) {
   return _mm_andnot_ps(_mm_set1_ps(-0.0f), x);
 }

@@ -157,10 +157,11 @@ TEST(FoldedTree, ATermThatStopsEarlyKeepsItsBound) {
   EXPECT_LE(std::abs(result.value[0] - texels), result.bound[0]);
 }
 
-// The decoded nodes the descents read are the packed tree's values, shares and bounds, decoded
-// one by one here through the view (half_to_float, bound_code_value), not by the fold's SIMD;
-// and a folded tree whose decoded nodes do not match it is refused, not read out of bounds.
-TEST(FoldedTree, DecodedNodesAreThePackedTreesAndMustMatchIt) {
+// The decoded nodes the descents read are the packed tree's values, shares and bounds, bit for
+// bit, decoded one by one here through the view (half_to_float, bound_code_value), not by the
+// fold's SIMD; and a folded tree without a decoded node for each of its nodes is refused, not
+// read out of bounds.
+TEST(FoldedTree, DecodedNodesAreThePackedTreesAndMissingOnesAreRefused) {
   for (const int channels : {1, 3}) {
     const std::vector<Term> made = make_terms(channels, 2);
     std::vector<WeightedTerm> terms;
@@ -168,24 +169,27 @@ TEST(FoldedTree, DecodedNodesAreThePackedTreesAndMustMatchIt) {
       terms.push_back({t.tree.view(), t.weights, t.groups});
     const FoldedTree folded = fold(terms);
     const PackedTreeView view = folded.tree.view();
-    const int c3 = view.shape().channels;
-    ASSERT_EQ(c3, channels);
-    const std::size_t stride = 1 + 16 * std::size_t(c3);
+    const int folded_channels = view.shape().channels;
+    ASSERT_EQ(folded_channels, channels);
+    const std::size_t stride = 1 + 16 * std::size_t(folded_channels);  // written out: the layout
+    ASSERT_EQ(FoldedTree::descent_words(folded_channels), stride);
     ASSERT_EQ(folded.descent_nodes.size(), std::size_t(view.node_count()) * stride);
     for (int n = 0; n < view.node_count(); ++n) {
       const std::uint32_t* node = folded.descent_nodes.data() + std::size_t(n) * stride;
       ASSERT_EQ(node[0], view.link(n));
+      // Block b, channel c, quadrant q: its bits, to compare exactly (signed zeros included).
       const auto at = [&](int block, int c, int q) {
-        return std::bit_cast<float>(node[1 + std::size_t(block * 4 * c3 + 4 * c + q)]);
+        return node[1 + std::size_t(block * 4 * folded_channels + 4 * c + q)];
       };
-      for (int c = 0; c < c3; ++c)
+      const auto bits = [](float f) { return std::bit_cast<std::uint32_t>(f); };
+      for (int c = 0; c < folded_channels; ++c)
         for (int q = 0; q < 4; ++q) {
           const float value = half_to_float(view.halves(n)[4 * c + q]);
-          const float half_magnitude = half_to_float(view.halves(n)[4 * (c3 + c) + q]);
-          EXPECT_EQ(at(0, c, q), value);
-          EXPECT_EQ(at(1, c, q), std::abs(value) + (half_magnitude + half_magnitude));
-          EXPECT_EQ(at(2, c, q), bound_code_value(view.bound_code(n, 0, c, q)));
-          EXPECT_EQ(at(3, c, q), bound_code_value(view.bound_code(n, 1, c, q)));
+          const float half_magnitude = half_to_float(view.halves(n)[4 * (folded_channels + c) + q]);
+          EXPECT_EQ(at(0, c, q), bits(value));
+          EXPECT_EQ(at(1, c, q), bits(std::abs(value) + (half_magnitude + half_magnitude)));
+          EXPECT_EQ(at(2, c, q), bits(bound_code_value(view.bound_code(n, 0, c, q))));
+          EXPECT_EQ(at(3, c, q), bits(bound_code_value(view.bound_code(n, 1, c, q))));
         }
     }
     FoldedTree stripped = folded;

@@ -44,8 +44,15 @@ struct FoldedTree {
   // its values, its shares (|value| + 2 x group 1's value: the magnitude its rounding scales
   // with), its bounds and the bounds of the terms that stop where the sum goes on, in the
   // packed tree's units (before its scales), exactly the floats those descents would decode from
-  // `tree`. 1 + 16 x channels words a node.
+  // `tree`; descent_words(channels) words a node. They are not read again from `tree`: a tree
+  // changed after fold() must be folded again.
   std::vector<std::uint32_t> descent_nodes;
+
+  // Words of a node of descent_nodes for a tree of `channels` channels: its link, then four
+  // blocks of channels x 4 floats.
+  static constexpr std::size_t descent_words(int channels) {
+    return 1 + 4 * 4 * std::size_t(channels);
+  }
 };
 
 // Whether the library was built to convolve folded trees (it needs SSE4.1 and F16C), whatever
@@ -65,6 +72,8 @@ FoldedTree fold(std::span<const WeightedTerm> terms);
 // terms' summed bounds by the folded codes' rounding up (at most 1/8), the folded sum's own
 // rounding (2^-11 |f b| a quadrant, which can make the rounding terms 1.5 times theirs), and,
 // against linf bounds of b, by taking their alternative only where the sum stops.
+// std::invalid_argument when a.descent_nodes does not hold descent_words() words for each of
+// a.tree's nodes (a FoldedTree not made by fold()).
 Convolution convolve(const FoldedTree& a, const PackedTreeView& b,
                      const ConvolutionOptions& options = {});
 
