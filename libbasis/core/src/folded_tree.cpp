@@ -312,23 +312,24 @@ std::vector<std::uint32_t> descent_nodes(const PackedTree& tree) {
   const PackedTreeView view = tree.view();
   const int channels = tree.shape.channels;
   const std::size_t stride = FoldedTree::descent_words(channels);
-  const std::size_t block = 4 * std::size_t(channels);  // floats of one block
   const std::size_t codes_at = 1 + std::size_t(tree.shape.value_words());
   std::vector<std::uint32_t> out(std::size_t(view.node_count()) * stride);
   for (int n = 0; n < view.node_count(); ++n) {
     const std::uint32_t* w = view.node(n);
     std::uint32_t* node = out.data() + std::size_t(n) * stride;
     node[0] = w[0];
-    float* floats = reinterpret_cast<float*>(node + 1);
+    const auto at = [&](FoldedTree::DescentBlock block, int c) {
+      return reinterpret_cast<float*>(node + FoldedTree::descent_offset(channels, block, c));
+    };
     for (int c = 0; c < channels; ++c) {
       const __m128 value = detail::load_halves(w + 1 + 2 * c);
       const __m128 half_magnitude = detail::load_halves(w + 1 + 2 * (channels + c));
       const __m128 share =
           _mm_add_ps(detail::abs_ps(value), _mm_add_ps(half_magnitude, half_magnitude));
-      _mm_storeu_ps(floats + 4 * c, value);
-      _mm_storeu_ps(floats + block + 4 * c, share);
-      _mm_storeu_ps(floats + 2 * block + 4 * c, detail::load_bound_codes(w + codes_at + c));
-      _mm_storeu_ps(floats + 3 * block + 4 * c,
+      _mm_storeu_ps(at(FoldedTree::values, c), value);
+      _mm_storeu_ps(at(FoldedTree::shares, c), share);
+      _mm_storeu_ps(at(FoldedTree::bounds, c), detail::load_bound_codes(w + codes_at + c));
+      _mm_storeu_ps(at(FoldedTree::stopping_bounds, c),
                     detail::load_bound_codes(w + codes_at + channels + c));
     }
   }

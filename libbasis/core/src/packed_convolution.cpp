@@ -568,10 +568,13 @@ struct NarrowPairs {
       Side a;
       __m128 stopping_bound = _mm_setzero_ps();
       if constexpr (kFolded) {  // decoded: values, shares, bounds, stopping bounds
-        a.value = load_floats(values_a + 4 * ca);
-        a.share = a.magnitude = load_floats(values_a + 4 * (CA + ca));
-        a.bound = load_floats(values_a + 4 * (2 * CA + ca));
-        stopping_bound = load_floats(values_a + 4 * (3 * CA + ca));
+        const auto at = [&](FoldedTree::DescentBlock block) {
+          return load_floats(wa + FoldedTree::descent_offset(CA, block, ca));
+        };
+        a.value = at(FoldedTree::values);
+        a.share = a.magnitude = at(FoldedTree::shares);
+        a.bound = at(FoldedTree::bounds);
+        stopping_bound = at(FoldedTree::stopping_bounds);
       } else if constexpr (GW == 1) {
         a = one_channel<kTexelA>(wa, ca, shared_a, words_a, steps_a, k.codes_a, k.texel_bound_a,
                                  k.shared_bound_a, k.step_magnitudes_a);
@@ -832,10 +835,13 @@ struct MidPairs {
     Side a;
     Lanes12 stopping_bound = lanes12(0);
     if constexpr (kFolded) {  // decoded: values, shares, bounds, stopping bounds
-      a.value = floats(values_a, CA);
-      a.share = a.magnitude = floats(values_a + 4 * CA, CA);
-      a.bound = floats(values_a + 8 * CA, CA);
-      stopping_bound = floats(values_a + 12 * CA, CA);
+      const auto at = [&](FoldedTree::DescentBlock block) {
+        return floats(wa + FoldedTree::descent_offset(CA, block, 0), CA);
+      };
+      a.value = at(FoldedTree::values);
+      a.share = a.magnitude = at(FoldedTree::shares);
+      a.bound = at(FoldedTree::bounds);
+      stopping_bound = at(FoldedTree::stopping_bounds);
     } else if constexpr (GW == 1) {
       a = one_group<kTexelA>(wa, CA, CA == 3 && k.shared_a, k.codes_a, k.texel_bound_a,
                              k.shared_bound_a, k.step_magnitudes_a);

@@ -48,8 +48,14 @@ struct FoldedTree {
   // changed after fold() must be folded again.
   std::vector<std::uint32_t> descent_nodes;
 
-  // Words of a node of descent_nodes for a tree of `channels` channels: its link, then four
-  // blocks of channels x 4 floats.
+  // The blocks of a node of descent_nodes, in order after its link.
+  enum DescentBlock : int { values = 0, shares = 1, bounds = 2, stopping_bounds = 3 };
+  // Where channel c of a block starts in a node of descent_nodes, in words from the node's link,
+  // for a tree of `channels` channels (its four quadrants' floats follow).
+  static constexpr std::size_t descent_offset(int channels, DescentBlock block, int c) {
+    return 1 + 4 * std::size_t(int(block) * channels + c);
+  }
+  // Words of a node of descent_nodes: its link, then the four blocks.
   static constexpr std::size_t descent_words(int channels) {
     return 1 + 4 * 4 * std::size_t(channels);
   }
