@@ -306,7 +306,7 @@ PackedTree pack_folded(const std::vector<FoldedNode>& nodes, int resolution, int
   return out;
 }
 
-// FoldedTree::descent_nodes of a packed folded tree: its values and bound codes decoded as the
+// FoldedTree::descent_nodes() of a packed folded tree: its values and bound codes decoded as the
 // descents decode them, and the shares summed as they sum them.
 std::vector<std::uint32_t> descent_nodes(const PackedTree& tree) {
   const PackedTreeView view = tree.view();
@@ -363,19 +363,20 @@ FoldedTree fold(std::span<const WeightedTerm> terms) {
       lost_values += 65504.0 * std::abs(double(w * t.tree.scales().value_scale) - value_weight) +
                      (std::abs(value_weight) < 0x1p-102 ? 0x1p-150 : 0);
     }
-  FoldedTree folded{pack_folded(fold_nodes(terms, channels), resolution, channels), 1, {}};
+  FoldedTree folded;
+  folded.tree_ = pack_folded(fold_nodes(terms, channels), resolution, channels);
   // The terms' subnormal rounding, in the folded tree's value units (2^-25 value_scale), and what
   // the products lost, twice (their magnitudes, which the rounding terms take, lost as much).
-  const double value_scale = folded.tree.scales.value_scale;
+  const double value_scale = folded.tree_.scales.value_scale;
   for (const WeightedTerm& t : terms) {
     double weight = 0;
     for (int g = 0; g < t.groups; ++g)
       weight += std::abs(double(t.weights[std::size_t(g)]));
-    folded.floor_weight += float(weight * double(t.tree.scales().value_scale) / value_scale);
+    folded.floor_weight_ += float(weight * double(t.tree.scales().value_scale) / value_scale);
   }
-  folded.floor_weight += float(2 * lost_values / (kHalfSubnormalRounding * value_scale));
-  folded.floor_weight = std::nextafter(folded.floor_weight, INFINITY);
-  folded.descent_nodes = descent_nodes(folded.tree);
+  folded.floor_weight_ += float(2 * lost_values / (kHalfSubnormalRounding * value_scale));
+  folded.floor_weight_ = std::nextafter(folded.floor_weight_, INFINITY);
+  folded.descent_nodes_ = descent_nodes(folded.tree_);
   return folded;
 #else
   throw std::logic_error("folding trees needs SSE4.1 and F16C (folding_available())");

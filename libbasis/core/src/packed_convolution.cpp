@@ -233,7 +233,7 @@ using detail::abs_ps;
 using detail::load_bound_codes;
 using detail::load_halves;
 
-// Four floats at p (FoldedTree::descent_nodes: float bits in words).
+// Four floats at p (FoldedTree::descent_nodes(): float bits in words).
 inline __m128 load_floats(const std::uint32_t* p) {
   return _mm_loadu_ps(reinterpret_cast<const float*>(p));
 }
@@ -279,7 +279,7 @@ inline float lane_sum(__m128 v) {
 template <int CA, int CB>
 struct DescentConstants {
   static constexpr int C = CA > CB ? CA : CB;
-  // Words of a node of FoldedTree::descent_nodes: its link, then values, shares, bounds and
+  // Words of a node of FoldedTree::descent_nodes(): its link, then values, shares, bounds and
   // stopping bounds, CA x 4 floats each.
   static constexpr std::size_t kDecodedFoldWords = FoldedTree::descent_words(CA);
   // Words of a node of shared-exponent words (RGB, one group and its bounds: packed_tree.h),
@@ -327,7 +327,7 @@ struct DescentConstants {
   float per_value, per_magnitude;
   float allowed[C];
 
-  // folded_nodes: a's nodes decoded (FoldedTree::descent_nodes), read in place of its words.
+  // folded_nodes: a's nodes decoded (FoldedTree::descent_nodes()), read in place of its words.
   DescentConstants(const PackedTreeView& ta, const PackedTreeView& tb, double accuracy,
                    std::span<const float> weights = {},
                    std::span<const std::uint32_t> folded_nodes = {})
@@ -456,7 +456,7 @@ template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB, bool kFolded
           bool kBound = true>
 struct NarrowPairs {
   static constexpr int C = CA > CB ? CA : CB;
-  // A folded a is read from its decoded nodes (FoldedTree::descent_nodes).
+  // A folded a is read from its decoded nodes (FoldedTree::descent_nodes()).
   static constexpr bool kDecodedFold = true;
   // The flags PackedDescent reads: a is folded; b holds shared-exponent words.
   static constexpr bool kFoldedA = kFolded, kSharedB = false;
@@ -707,7 +707,7 @@ template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB, bool kFolded
           bool kSharedWordsB = false, bool kBound = true>
 struct MidPairs {
   static constexpr int C = 3;
-  // A folded a is read from its decoded nodes (FoldedTree::descent_nodes).
+  // A folded a is read from its decoded nodes (FoldedTree::descent_nodes()).
   static constexpr bool kDecodedFold = true;
   // The flags PackedDescent reads: a is folded; b holds shared-exponent words.
   static constexpr bool kFoldedA = kFolded, kSharedB = kSharedWordsB;
@@ -743,7 +743,7 @@ struct MidPairs {
     return {_mm256_cvtph_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(p))),
             load_halves(p + 4)};
   }
-  // The floats of a node of `channels` channels at p (FoldedTree::descent_nodes).
+  // The floats of a node of `channels` channels at p (FoldedTree::descent_nodes()).
   static Lanes12 floats(const std::uint32_t* p, int channels) {
     if (channels == 1) return lanes12_grey(load_floats(p));
     return {_mm256_loadu_ps(reinterpret_cast<const float*>(p)), load_floats(p + 8)};
@@ -1292,10 +1292,10 @@ class PackedDescent {
   DescentConstants<CA, CB> k_;
 };
 
-// kFolded: a is folded->tree (folded_tree.h), whose terms' rounding folded->floor_weight covers,
-// read from its decoded nodes where the policy takes them (kDecodedFold). kSharedWordsB: b's values
-// are shared-exponent words (WidePairs, MidPairs). Without kBound, the values alone (the same sums)
-// and a bound of +infinity.
+// kFolded: a is folded->tree() (folded_tree.h), whose terms' rounding folded->floor_weight()
+// covers, read from its decoded nodes where the policy takes them (kDecodedFold). kSharedWordsB:
+// b's values are shared-exponent words (WidePairs, MidPairs). Without kBound, the values alone (the
+// same sums) and a bound of +infinity.
 template <int CA, int CB, int GA, int GW, bool kLinfA, bool kLinfB, bool kFolded = false,
           bool kSharedWordsB = false, bool kBound = true>
 GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, double accuracy,
@@ -1315,7 +1315,7 @@ GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, 
   using Pairs = NarrowPairs<CA, CB, GA, GW, kLinfA, kLinfB, kFolded, kBound>;
 #endif
   std::span<const std::uint32_t> folded_nodes;
-  if constexpr (kFolded && Pairs::kDecodedFold) folded_nodes = folded->descent_nodes;
+  if constexpr (kFolded && Pairs::kDecodedFold) folded_nodes = folded->descent_nodes();
   if constexpr (kSharedWordsB) {
     using K = DescentConstants<CA, CB>;
     if (std::size_t(b.shape().words_per_node()) != K::kSharedNodeWords ||
@@ -1324,7 +1324,7 @@ GroupConvolution descend_simd(const PackedTreeView& a, const PackedTreeView& b, 
       throw std::logic_error("a tree of shared-exponent words laid out otherwise");
   }
   PackedDescent<Pairs, CA, CB> descent(a, b, accuracy, weights, folded_nodes);
-  if constexpr (kFolded) descent.fold(folded->floor_weight);
+  if constexpr (kFolded) descent.fold(folded->floor_weight());
   const typename Pairs::Sums sums = descent.run(0, 0, 0.25f, 0);
   const DescentConstants<CA, CB>& k = descent.constants();
   // Results below the normal floats lose up to 2^-150 an operation, in the units they are
@@ -1472,18 +1472,12 @@ Convolution convolve(const PackedTreeView& a, const PackedTreeView& b,
 Convolution convolve(const FoldedTree& a, const PackedTreeView& b,
                      const ConvolutionOptions& options) {
   const GradualUnderflow gradual_underflow;
-  check_compatible(a.tree.shape, b.shape());
+  check_compatible(a.tree().shape, b.shape());
   check_options(options);
 #if defined(__SSE4_1__) && defined(__F16C__)
-  const std::size_t decoded_words =
-      std::size_t(a.tree.node_count()) * FoldedTree::descent_words(a.tree.shape.channels);
-  if (a.descent_nodes.size() != decoded_words)
-    throw std::invalid_argument(
-        "a folded tree without its decoded nodes, one for each of its nodes (a FoldedTree made "
-        "other than by fold())");
-  return result_of(
-      dispatch_simd_bound_if<1, 1, true>(options.bound, a.tree.view(), b, options.accuracy, {}, &a),
-      options);
+  return result_of(dispatch_simd_bound_if<1, 1, true>(options.bound, a.tree().view(), b,
+                                                      options.accuracy, {}, &a),
+                   options);
 #else
   (void)options;
   throw std::logic_error("convolving a folded tree needs SSE4.1 and F16C (folding_available())");

@@ -33,32 +33,43 @@ inline constexpr std::size_t kMaxFoldedTerms = 4;
 //            stops on the quadrant while the sum goes on.
 // A term that stops on a quadrant holds its value below it, as its own descent would; its
 // bound there is added once, against the other tree's quadrant (convolve below).
-struct FoldedTree {
-  PackedTree tree;
+// Made only by fold(), and read-only after it: its tree and the decoded nodes the descents read
+// in its place always agree.
+class FoldedTree {
+ public:
+  // The folded sum as a packed tree.
+  const PackedTree& tree() const { return tree_; }
   // The subnormal rounding the terms' values carry, in units of the folded tree's value scale
   // (sum_t sum_g |w| value_scale_t / value_scale), plus the folded values' own and what the
   // fold's float products lost below the normal floats.
-  float floor_weight = 1;
+  float floor_weight() const { return floor_weight_; }
   // The nodes decoded once for the SSE4.1 and AVX2 descents, so that no pair decodes them again:
   // per node its link word, then four blocks of channels x 4 floats (channel-major, as bits):
   // its values, its shares (|value| + 2 x group 1's value: the magnitude its rounding scales
   // with), its bounds and the bounds of the terms that stop where the sum goes on, in the
   // packed tree's units (before its scales), exactly the floats those descents would decode from
-  // `tree`; descent_words(channels) words a node. They are not read again from `tree`: a tree
-  // changed after fold() must be folded again.
-  std::vector<std::uint32_t> descent_nodes;
+  // tree(); descent_words(channels) words a node.
+  std::span<const std::uint32_t> descent_nodes() const { return descent_nodes_; }
 
-  // The blocks of a node of descent_nodes, in order after its link.
+  // The blocks of a node of descent_nodes(), in order after its link.
   enum DescentBlock : int { values = 0, shares = 1, bounds = 2, stopping_bounds = 3 };
-  // Where channel c of a block starts in a node of descent_nodes, in words from the node's link,
+  // Where channel c of a block starts in a node of descent_nodes(), in words from its link,
   // for a tree of `channels` channels (its four quadrants' floats follow).
   static constexpr std::size_t descent_offset(int channels, DescentBlock block, int c) {
     return 1 + 4 * std::size_t(int(block) * channels + c);
   }
-  // Words of a node of descent_nodes: its link, then the four blocks.
+  // Words of a node of descent_nodes(): its link, then the four blocks.
   static constexpr std::size_t descent_words(int channels) {
     return 1 + 4 * 4 * std::size_t(channels);
   }
+
+ private:
+  friend FoldedTree fold(std::span<const WeightedTerm> terms);
+  FoldedTree() = default;
+
+  PackedTree tree_;
+  float floor_weight_ = 1;
+  std::vector<std::uint32_t> descent_nodes_;
 };
 
 // Whether the library was built to convolve folded trees (it needs SSE4.1 and F16C), whatever
@@ -78,8 +89,6 @@ FoldedTree fold(std::span<const WeightedTerm> terms);
 // terms' summed bounds by the folded codes' rounding up (at most 1/8), the folded sum's own
 // rounding (2^-11 |f b| a quadrant, which can make the rounding terms 1.5 times theirs), and,
 // against linf bounds of b, by taking their alternative only where the sum stops.
-// std::invalid_argument when a.descent_nodes does not hold descent_words() words for each of
-// a.tree's nodes (a FoldedTree not made by fold()).
 Convolution convolve(const FoldedTree& a, const PackedTreeView& b,
                      const ConvolutionOptions& options = {});
 
