@@ -33,11 +33,18 @@ extern "C" void on_signal(int) {
   interrupted.store(true);
 }
 
-// Whether everything written to standard output reached it; errno says why not (a full disk).
+// Whether everything written to standard output reached it; errno says why not (a full disk, a
+// closed pipe). A write that failed while the tool worked stops the stream's later writes, and
+// so leaves no errno here: then one byte more goes straight to the failed output, whose results
+// are lost anyway, to learn why.
 bool standard_output_written() {
   errno = 0;  // before the writes, so that a failed one's reason stays for the message
   std::cout.flush();
-  return std::fflush(stdout) == 0 && !std::ferror(stdout) && !std::cout.fail();
+  const bool written = std::fflush(stdout) == 0 && !std::ferror(stdout) && !std::cout.fail();
+  if (!written && errno == 0) {
+    [[maybe_unused]] const ssize_t probe = ::write(STDOUT_FILENO, "\n", 1);  // errno if it fails
+  }
+  return written;
 }
 
 std::string one_line(std::string text) {
