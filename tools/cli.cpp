@@ -1,5 +1,6 @@
 #include "cli.h"
 
+#include <sys/stat.h>
 #include <tbb/info.h>
 #include <unistd.h>
 
@@ -33,15 +34,18 @@ extern "C" void on_signal(int) {
   interrupted.store(true);
 }
 
-// Whether everything written to standard output reached it; errno says why not (a full disk, a
-// closed pipe). A write that failed while the tool worked stops the stream's later writes, and
-// so leaves no errno here: then one byte more goes straight to the failed output, whose results
-// are lost anyway, to learn why.
+// Whether everything written to standard output reached it; errno says why not (a full device,
+// a pipe whose reader left while SIGPIPE is ignored). A write that failed while the tool worked
+// stops the stream's later writes, and so leaves no errno here: then, where the output is not a
+// regular file, one byte more goes straight to it, whose results are lost anyway, to learn why
+// (a file keeps what it has, and the message says only "write error").
 bool standard_output_written() {
   errno = 0;  // before the writes, so that a failed one's reason stays for the message
   std::cout.flush();
   const bool written = std::fflush(stdout) == 0 && !std::ferror(stdout) && !std::cout.fail();
-  if (!written && errno == 0) {
+  struct stat output {};
+  if (!written && errno == 0 && std::ferror(stdout) && ::fstat(STDOUT_FILENO, &output) == 0 &&
+      !S_ISREG(output.st_mode)) {
     [[maybe_unused]] const ssize_t probe = ::write(STDOUT_FILENO, "\n", 1);  // errno if it fails
   }
   return written;

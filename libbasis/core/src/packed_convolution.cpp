@@ -1475,6 +1475,7 @@ Convolution convolve(const FoldedTree& a, const PackedTreeView& b,
   check_compatible(a.tree().shape, b.shape());
   check_options(options);
 #if defined(__SSE4_1__) && defined(__F16C__)
+  if (a.descent_nodes().empty()) throw std::invalid_argument("a folded tree moved from");
   return result_of(dispatch_simd_bound_if<1, 1, true>(options.bound, a.tree().view(), b,
                                                       options.accuracy, {}, &a),
                    options);

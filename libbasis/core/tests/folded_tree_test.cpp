@@ -8,6 +8,7 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include "basis/core/folded_tree.h"
@@ -159,7 +160,8 @@ TEST(FoldedTree, ATermThatStopsEarlyKeepsItsBound) {
 
 // The decoded nodes the descents read are the packed tree's values, shares and bounds, bit for
 // bit, decoded one by one here through the view (half_to_float, bound_code_value), not by the
-// fold's SIMD, one for each of its nodes.
+// fold's SIMD, one for each of its nodes; a folded tree moved from, which holds none, is refused,
+// not read out of bounds.
 TEST(FoldedTree, DecodedNodesAreThePackedTrees) {
   for (const int channels : {1, 3}) {
     const std::vector<Term> made = make_terms(channels, 2);
@@ -191,6 +193,11 @@ TEST(FoldedTree, DecodedNodesAreThePackedTrees) {
           EXPECT_EQ(at(3, c, q), bits(bound_code_value(view.bound_code(n, 1, c, q))));
         }
     }
+    FoldedTree moved_from = folded;
+    const FoldedTree moved_to = std::move(moved_from);
+    EXPECT_EQ(convolve(moved_to, made[0].tree.view()).value,
+              convolve(folded, made[0].tree.view()).value);
+    EXPECT_THROW(convolve(moved_from, made[0].tree.view()), std::invalid_argument);
   }
 }
 

@@ -34,7 +34,7 @@ inline constexpr std::size_t kMaxFoldedTerms = 4;
 // A term that stops on a quadrant holds its value below it, as its own descent would; its
 // bound there is added once, against the other tree's quadrant (convolve below).
 // Made only by fold(), and read-only after it: its tree and the decoded nodes the descents read
-// in its place always agree.
+// in its place always agree (one moved from holds neither, and convolve() refuses it).
 class FoldedTree {
  public:
   // The folded sum as a packed tree.
@@ -89,6 +89,7 @@ FoldedTree fold(std::span<const WeightedTerm> terms);
 // terms' summed bounds by the folded codes' rounding up (at most 1/8), the folded sum's own
 // rounding (2^-11 |f b| a quadrant, which can make the rounding terms 1.5 times theirs), and,
 // against linf bounds of b, by taking their alternative only where the sum stops.
+// std::invalid_argument for a FoldedTree moved from.
 Convolution convolve(const FoldedTree& a, const PackedTreeView& b,
                      const ConvolutionOptions& options = {});
 
