@@ -27,16 +27,13 @@ namespace {
 
 using testing::run_tool;
 using testing::TempDir;
+using testing::write_text;
 
 struct Expectation {
   std::vector<std::string> args;
   int status;
   std::string mentions;  // text stderr must contain (the input's name)
 };
-
-void write_text(const std::string& path, const std::string& text) {
-  std::ofstream(path) << text;
-}
 
 // Valid inputs every case starts from, and broken variants of each kind of file.
 void write_inputs(const TempDir& dir) {

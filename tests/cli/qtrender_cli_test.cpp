@@ -5,7 +5,6 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <thread>
 
@@ -19,10 +18,7 @@ namespace {
 using testing::line_count;
 using testing::run_tool;
 using testing::TempDir;
-
-void write_text(const std::string& path, const std::string& text) {
-  std::ofstream(path) << text;
-}
+using testing::write_text;
 
 std::string scene_text(const std::string& camera, const std::string& material) {
   return R"({"camera": )" + camera + R"(,

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -37,5 +38,10 @@ class TempDir {
  private:
   std::filesystem::path path_;
 };
+
+// Writes `text` to the file at `path`, replacing it.
+inline void write_text(const std::string& path, const std::string& text) {
+  std::ofstream(path) << text;
+}
 
 }  // namespace basis::testing

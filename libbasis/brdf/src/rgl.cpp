@@ -31,8 +31,6 @@ using rgl::shape_text;
 using rgl::TensorFile;
 using rgl::Warp2D;
 
-constexpr double kPi = std::numbers::pi;
-
 // Angles and their unit-square coordinates: u_theta = sqrt(2 theta / pi), u_phi = (phi + pi) / 2pi.
 
 // Angle from +z of a unit vector, accurate near the pole.
@@ -40,16 +38,16 @@ double elevation(const Vec3& d) {
   return 2 * std::asin(std::min(1.0, 0.5 * (d - Vec3::UnitZ()).norm()));
 }
 double theta_to_u(double theta) {
-  return std::sqrt(std::max(0.0, 2 * theta / kPi));
+  return std::sqrt(std::max(0.0, 2 * theta / std::numbers::pi));
 }
 double phi_to_u(double phi) {
-  return (phi + kPi) / (2 * kPi);
+  return (phi + std::numbers::pi) / (2 * std::numbers::pi);
 }
 double u_to_theta(double u) {
-  return 0.5 * kPi * u * u;
+  return 0.5 * std::numbers::pi * u * u;
 }
 double u_to_phi(double u) {
-  return (2 * u - 1) * kPi;
+  return (2 * u - 1) * std::numbers::pi;
 }
 
 // The table parameters of an incident direction.
@@ -73,7 +71,8 @@ Vec2 half_vector_u(const Vec3& wm, double phi_i) {
 
 // Solid-angle Jacobian of the half vector in the u-square times the reflection Jacobian.
 double half_vector_jacobian(double u_theta, double sin_theta_m, double wi_dot_wm) {
-  return std::max(2 * kPi * kPi * u_theta * sin_theta_m, 1e-6) * 4 * wi_dot_wm;
+  return std::max(2 * std::numbers::pi * std::numbers::pi * u_theta * sin_theta_m, 1e-6) * 4 *
+         wi_dot_wm;
 }
 
 bool above_horizon(const Vec3& w) {

@@ -196,7 +196,7 @@ Vec3 direction(double theta_degrees, double phi_degrees) {
 }
 
 // A random direction with z >= min_z.
-Vec3 random_direction(std::mt19937& rng, double min_z = 1e-3) {
+Vec3 random_direction_above(std::mt19937& rng, double min_z = 1e-3) {
   std::normal_distribution<double> g;
   for (;;) {
     const Vec3 v = Vec3(g(rng), g(rng), std::abs(g(rng))).normalized();
@@ -262,7 +262,7 @@ TEST(RglBrdf, SyntheticFileEvaluatesToItsConstantFormula) {
 
   std::mt19937 rng(11);
   for (int k = 0; k < 2000; ++k) {
-    const Vec3 wi = random_direction(rng), wo = random_direction(rng);
+    const Vec3 wi = random_direction_above(rng), wo = random_direction_above(rng);
     const Color f = brdf->evaluate_parametrised(wi, wo), g = plain->evaluate_parametrised(wi, wo);
     for (int c = 0; c < 3; ++c) {
       // jacobian = 1: rgb D / (4 sigma) / cos(theta_o); jacobian = 0: rgb / cos(theta_o).
@@ -306,7 +306,7 @@ TEST(RglBrdf, ReadsEverySampleFile) {
     std::mt19937 rng(3);
     int positive = 0;
     for (int k = 0; k < 3000; ++k) {
-      const Vec3 wi = random_direction(rng), wo = random_direction(rng);
+      const Vec3 wi = random_direction_above(rng), wo = random_direction_above(rng);
       const Color f = brdf->evaluate_parametrised(wi, wo);
       for (int c = 0; c < 3; ++c) {
         ASSERT_TRUE(std::isfinite(f[c])) << wi.transpose() << " | " << wo.transpose();
@@ -327,7 +327,8 @@ TEST(RglBrdf, ReadsEverySampleFile) {
     const auto brdf = RglBrdf::read(write_synthetic(dir, "s.bsdf", synthetic_fields()));
     std::mt19937 rng(3);
     for (int k = 0; k < 1000; ++k) {
-      const Color f = brdf->evaluate_parametrised(random_direction(rng), random_direction(rng));
+      const Color f =
+          brdf->evaluate_parametrised(random_direction_above(rng), random_direction_above(rng));
       for (double v : f)
         EXPECT_TRUE(std::isfinite(v) && v > 0) << v;
     }
@@ -525,7 +526,7 @@ TEST(RglBrdf, ReciprocityWithinMeasuredTolerance) {
     const auto brdf = RglBrdf::read(write_synthetic(dir, "s.bsdf", synthetic_fields()));
     std::mt19937 rng(31);
     for (int k = 0; k < 500; ++k) {
-      const Vec3 wi = random_direction(rng, 0.1), wo = random_direction(rng, 0.1);
+      const Vec3 wi = random_direction_above(rng, 0.1), wo = random_direction_above(rng, 0.1);
       EXPECT_NEAR(brdf->evaluate_parametrised(wi, wo)[0] * wo.z(),
                   brdf->evaluate_parametrised(wo, wi)[0] * wi.z(), 1e-12);
     }
@@ -536,7 +537,7 @@ TEST(RglBrdf, ReciprocityWithinMeasuredTolerance) {
     std::mt19937 rng(31);
     std::vector<double> differences;
     for (int k = 0; k < 4000; ++k) {
-      const Vec3 wi = random_direction(rng, 0.1), wo = random_direction(rng, 0.1);
+      const Vec3 wi = random_direction_above(rng, 0.1), wo = random_direction_above(rng, 0.1);
       const Color a = brdf->evaluate_parametrised(wi, wo), b = brdf->evaluate_parametrised(wo, wi);
       const double sa = a[0] + a[1] + a[2], sb = b[0] + b[1] + b[2];
       if (sa + sb > 1e-9) differences.push_back(std::abs(sa - sb) / (0.5 * (sa + sb)));

@@ -3,7 +3,6 @@
 // to r, the MTL convention); a negative emission reads as 0 with a warning.
 #include <gtest/gtest.h>
 
-#include <fstream>
 #include <string>
 
 #include "basis/core/file_error.h"
@@ -14,10 +13,7 @@ namespace basis {
 namespace {
 
 using testing::TempDir;
-
-void write_text(const std::string& path, const std::string& text) {
-  std::ofstream(path) << text;
-}
+using testing::write_text;
 
 // The FileError read_obj throws for `path`, or "" when it reads the file.
 std::string read_error(const std::string& path) {

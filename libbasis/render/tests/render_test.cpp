@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <numbers>
 #include <string>
 #include <tuple>
@@ -28,10 +27,7 @@ namespace basis {
 namespace {
 
 using testing::TempDir;
-
-void write_text(const std::string& path, const std::string& text) {
-  std::ofstream(path) << text;
-}
+using testing::write_text;
 
 // ---------------------------------------------------------------- sampling
 
