@@ -1,5 +1,6 @@
-# basis_add_tests(NAME [THIN] [COST seconds] SOURCES... LINK targets... [ENVIRONMENT VAR=value]):
-# a GoogleTest executable whose tests ctest runs one by one (with that one variable set); the
+# basis_add_tests(NAME [THIN] [COST seconds] SOURCES... LINK targets... [ENVIRONMENT_APPEND VAR=text]):
+# a GoogleTest executable whose tests ctest runs one by one (with text appended to that one
+# variable as ctest's caller set it, so that what the caller chose still applies); the
 # shared test helpers (tests/support) are on its include path and BASIS_SOURCE_DIR names the
 # source tree (for data/ and ../shared/data). THIN: the tests' own code does no numeric work
 # (they run the tools, or read and write files), so it is compiled with little optimisation
@@ -10,7 +11,7 @@
 include(GoogleTest)
 
 function(basis_add_tests name)
-  cmake_parse_arguments(PARSE_ARGV 1 arg "THIN" "COST" "SOURCES;LINK;ENVIRONMENT")
+  cmake_parse_arguments(PARSE_ARGV 1 arg "THIN" "COST;ENVIRONMENT_APPEND" "SOURCES;LINK")
   add_executable(${name} ${arg_SOURCES})
   target_link_libraries(${name} PRIVATE ${arg_LINK} GTest::gtest_main)
   target_include_directories(${name} PRIVATE ${PROJECT_SOURCE_DIR}/tests)
@@ -18,13 +19,20 @@ function(basis_add_tests name)
   if(arg_THIN)
     target_compile_options(${name} PRIVATE ${BASIS_THIN_TEST_OPTIONS})
   endif()
-  list(LENGTH arg_ENVIRONMENT variables)
-  if(variables GREATER 1)
-    message(FATAL_ERROR "basis_add_tests(${name}): ENVIRONMENT takes one VAR=value")
+  if(arg_UNPARSED_ARGUMENTS)
+    message(FATAL_ERROR "basis_add_tests(${name}): unexpected ${arg_UNPARSED_ARGUMENTS} "
+                        "(ENVIRONMENT_APPEND takes one VAR=text)")
   endif()
   set(properties "")
-  if(arg_ENVIRONMENT)
-    list(APPEND properties ENVIRONMENT "${arg_ENVIRONMENT}")
+  if(arg_ENVIRONMENT_APPEND)
+    string(FIND "${arg_ENVIRONMENT_APPEND}" "=" equals)
+    if(equals LESS 1)
+      message(FATAL_ERROR "basis_add_tests(${name}): ENVIRONMENT_APPEND takes VAR=text")
+    endif()
+    string(SUBSTRING "${arg_ENVIRONMENT_APPEND}" 0 ${equals} variable)
+    math(EXPR text_start "${equals} + 1")
+    string(SUBSTRING "${arg_ENVIRONMENT_APPEND}" ${text_start} -1 text)
+    list(APPEND properties ENVIRONMENT_MODIFICATION "${variable}=string_append:${text}")
   endif()
   if(arg_COST)
     list(APPEND properties COST ${arg_COST})
