@@ -1217,7 +1217,7 @@ class PackedDescent {
     unsigned queued = 0;
     // Pairs whose children found the next level full (index << 4 | internal quadrants): they
     // descend after the loop, which then makes no call and keeps more of the level's sums in
-    // registers (2-5 % fewer instructions a lookup); in the same order, so the same sums.
+    // registers (fewer instructions a pair); in the same order, so the same sums.
     std::uint32_t overflow[kLevelPairs];
     unsigned overflowed = 0;
     const LevelNodes nodes = level_nodes(depth), children_nodes = level_nodes(depth + 1);
