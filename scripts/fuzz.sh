@@ -8,7 +8,13 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-${BASIS_FUZZ_SECONDS:-15}}
 targets=(fuzz_qt_file fuzz_brdf_spec fuzz_measured fuzz_scene_files fuzz_render_scene fuzz_manifest)
-[ -x build-asan/bin/fuzz_scene_files ] || scripts/build-sanitized.sh
+# ./build-asan as the sanitizer build configures it: a folder configured otherwise (by hand,
+# without the fuzz targets or the sanitizers) is configured again, and built, first.
+sanitized() {
+  grep -qx 'BASIS_FUZZ:BOOL=ON' build-asan/CMakeCache.txt 2>/dev/null &&
+    grep -qx 'BASIS_SANITIZE:BOOL=ON' build-asan/CMakeCache.txt
+}
+if ! sanitized || [ ! -x build-asan/bin/fuzz_scene_files ]; then scripts/build-sanitized.sh; fi
 cmake --build build-asan -j "$(nproc)" --target "${targets[@]}"
 
 scratch=$(mktemp -d)

@@ -1218,7 +1218,8 @@ class PackedDescent {
     // Pairs whose children found the next level full (index << 4 | internal quadrants): they
     // descend after the loop, which then makes no call and keeps more of the level's sums in
     // registers (fewer instructions a pair); in the same order, so the same sums.
-    std::uint32_t overflow[kLevelPairs];
+    static_assert(((kLevelPairs - 1) << 4 | 15u) <= 0xFFFFu, "an entry fits 16 bits");
+    std::uint16_t overflow[kLevelPairs];
     unsigned overflowed = 0;
     const LevelNodes nodes = level_nodes(depth), children_nodes = level_nodes(depth + 1);
     // Strides the policy fixes (a folded a's decoded nodes, b's shared-exponent nodes) are
@@ -1238,7 +1239,7 @@ class PackedDescent {
           Pairs::template visit<false, false>(k, wa, wb, la & lb & 0xFu, level_sums);
       if (queued > kLevelPairs - 4) [[unlikely]] {
         // No room: this pair's internal quadrants descend after the loop, in nested calls.
-        overflow[overflowed++] = i << 4 | internal;
+        overflow[overflowed++] = std::uint16_t(i << 4 | internal);
         continue;
       }
       // The children are read when their level comes: ask for them now, so that memory
