@@ -10,6 +10,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "basis/core/shard.h"
@@ -32,6 +33,11 @@ int run(CLI::App& app, int argc, char** argv, const std::function<void()>& body)
 
 // The flag set by SIGINT / SIGTERM once run() has installed its handlers.
 const std::atomic<bool>& interrupt_flag();
+
+// Writes results to standard output. Where it cannot take them (a full disk, a file over its
+// size limit, a pipe whose reader left while SIGPIPE is ignored) throws std::runtime_error "standard output: REASON; results lost"
+// at once, with the failed write's own reason, so that the tool stops instead of working on.
+void write_standard_output(std::string_view text);
 
 // Thrown by tools for bad usage detected after parsing (exit status 2).
 class UsageError : public std::runtime_error {

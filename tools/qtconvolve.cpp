@@ -123,7 +123,7 @@ class Output {
     if (file_)
       file_->write(text);
     else
-      std::fwrite(text.data(), 1, text.size(), stdout);
+      basis::cli::write_standard_output(text);
   }
   void commit() {
     if (file_) file_->commit();

@@ -441,6 +441,19 @@ TEST(BadInputMatrix, ResultsThatStandardOutputCannotTakeAreAnError) {
     const bool help = command.ends_with("--help") || command.ends_with("--version");
     EXPECT_NE(err.find(help ? "; help lost" : "; results lost"), std::string::npos) << err;
   }
+  // A regular file that stops taking results while the tool works (here: over the size limit the
+  // shell sets, its signal ignored, as a full disk would): the failed write's own reason, where
+  // the message used to say only "write error".
+  const std::string shell = "cd '" + dir.path() + "' && trap '' XFSZ && ulimit -f 4 && '" +
+                            testing::tool_directory().string() +
+                            "'/qtconvolve ok.qt many.qt --csv > limited.csv 2> err.txt";
+  const int status = std::system(shell.c_str());
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 1);
+  const std::string err = testing::slurp(dir.file("err.txt"));
+  EXPECT_EQ(err, std::string("qtconvolve: standard output: ") + std::strerror(EFBIG) +
+                     "; results lost\n");
+  EXPECT_LE(std::filesystem::file_size(dir.file("limited.csv")), 4 * 1024);
 }
 
 // An output that would destroy an input, or another output, is bad usage: exit 2, one line,
