@@ -35,8 +35,9 @@ int run(CLI::App& app, int argc, char** argv, const std::function<void()>& body)
 const std::atomic<bool>& interrupt_flag();
 
 // Writes results to standard output. Where it cannot take them (a full disk, a file over its
-// size limit, a pipe whose reader left while SIGPIPE is ignored) throws std::runtime_error "standard output: REASON; results lost"
-// at once, with the failed write's own reason, so that the tool stops instead of working on.
+// size limit, a pipe whose reader left while SIGPIPE is ignored), throws std::runtime_error
+// "standard output: REASON; results lost" at once, with the failed write's own reason, so that
+// the tool stops instead of working on.
 void write_standard_output(std::string_view text);
 
 // Thrown by tools for bad usage detected after parsing (exit status 2).
