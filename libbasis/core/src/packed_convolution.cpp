@@ -624,21 +624,28 @@ struct NarrowPairs {
       }
       internal &= ~unsigned(_mm_movemask_ps(enough));
     }
+    // At a texel node every quadrant stops (internal is 0): the sums take the lanes unmasked,
+    // and no quadrant goes on to charge its stopping bound (the same sums, without the masks).
+    constexpr bool kAllStop = kTexelA || kTexelB;
     const __m128 internal_lanes = lanes_of(internal);
-    if constexpr (kFolded && kBound)
+    const auto stopped = [&](__m128 x) {
+      if constexpr (kAllStop)
+        return x;
+      else
+        return _mm_andnot_ps(internal_lanes, x);
+    };
+    if constexpr (kFolded && kBound && !kAllStop)
       for (int c = 0; c < C; ++c)
         sums.bound[c] = _mm_add_ps(sums.bound[c], _mm_and_ps(internal_lanes, term_on[c]));
     for (int c = 0; c < C; ++c) {
-      sums.value[0][c] = _mm_add_ps(sums.value[0][c], _mm_andnot_ps(internal_lanes, product[c]));
+      sums.value[0][c] = _mm_add_ps(sums.value[0][c], stopped(product[c]));
       for (int g = 1; g < GA; ++g) {
         const __m128 vg = load_halves(values_a + 2 * (g * CA + (CA == 1 ? 0 : c)));
-        sums.value[g][c] =
-            _mm_add_ps(sums.value[g][c], _mm_andnot_ps(internal_lanes, _mm_mul_ps(vg, vb[c])));
+        sums.value[g][c] = _mm_add_ps(sums.value[g][c], stopped(_mm_mul_ps(vg, vb[c])));
       }
       if constexpr (!kBound) continue;
-      sums.bound[c] = _mm_add_ps(sums.bound[c], _mm_andnot_ps(internal_lanes, term[c]));
-      sums.magnitude[c] =
-          _mm_add_ps(sums.magnitude[c], _mm_andnot_ps(internal_lanes, magnitude[c]));
+      sums.bound[c] = _mm_add_ps(sums.bound[c], stopped(term[c]));
+      sums.magnitude[c] = _mm_add_ps(sums.magnitude[c], stopped(magnitude[c]));
     }
     return internal;
   }
@@ -880,15 +887,24 @@ struct MidPairs {
                   lanes12_per_channel(k.allowed);
       internal &= ~all_channels_at_most(term, allowed);
     }
+    // At a texel node every quadrant stops (internal is 0): the sums take the lanes unmasked,
+    // and no quadrant goes on to charge its stopping bound (the same sums, without the masks).
+    constexpr bool kAllStop = kTexelA || kTexelB;
     const __m128 internal_lanes = lanes_of(internal);
-    if constexpr (kFolded && kBound)
+    const auto stopped = [&](Lanes12 x) {
+      if constexpr (kAllStop)
+        return x;
+      else
+        return andnot12(internal_lanes, x);
+    };
+    if constexpr (kFolded && kBound && !kAllStop)
       sums.bound = sums.bound + and12(internal_lanes, stopping_bound * b.bound);
-    sums.value[0] = sums.value[0] + andnot12(internal_lanes, product);
+    sums.value[0] = sums.value[0] + stopped(product);
     for (int g = 1; g < GA; ++g)
-      sums.value[g] = sums.value[g] + andnot12(internal_lanes, values(values_a, CA, g) * b.value);
+      sums.value[g] = sums.value[g] + stopped(values(values_a, CA, g) * b.value);
     if constexpr (!kBound) return internal;
-    sums.bound = sums.bound + andnot12(internal_lanes, term);
-    sums.magnitude = sums.magnitude + andnot12(internal_lanes, magnitude);
+    sums.bound = sums.bound + stopped(term);
+    sums.magnitude = sums.magnitude + stopped(magnitude);
     return internal;
   }
 };
@@ -1114,7 +1130,7 @@ struct WidePairs {
                                          _mm512_mul_ps(values(values_a, CA, g), b.value));
     if constexpr (!kBound) return internal;
     sums.bound = _mm512_mask_add_ps(sums.bound, stop, sums.bound, term);
-    if constexpr (kFolded)
+    if constexpr (kFolded && !(kTexelA || kTexelB))  // no quadrant of a texel node goes on
       sums.bound =
           _mm512_mask_add_ps(sums.bound, __mmask16(internal | internal << 4 | internal << 8),
                              sums.bound, _mm512_mul_ps(stopping_bound, b.bound));
