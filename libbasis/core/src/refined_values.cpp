@@ -21,9 +21,12 @@ struct Means {
   std::span<double> estimate, estimate_error, offset;
 };
 
+// Not cleared: a derived node's entries are written before its parent reads them (children
+// come later in the tree, and the pass goes backwards), and no other entry is read; a scratch
+// reused from tree to tree is then not filled again (it was 0.3 MiB a capture).
 Means means_in(std::vector<double>& scratch, std::size_t nodes) {
   const std::size_t size = nodes * kBoundsPerNode;
-  scratch.assign(3 * size, 0);
+  if (scratch.size() < 3 * size) scratch.resize(3 * size);
   const std::span<double> all(scratch);
   return {all.subspan(0, size), all.subspan(size, size), all.subspan(2 * size, size)};
 }
