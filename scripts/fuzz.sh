@@ -8,8 +8,9 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-${BASIS_FUZZ_SECONDS:-15}}
 targets=(fuzz_qt_file fuzz_brdf_spec fuzz_measured fuzz_scene_files fuzz_render_scene fuzz_manifest)
-# ./build-asan as the sanitizer build configures it: a folder configured otherwise (by hand,
-# without the fuzz targets or the sanitizers) is configured again, and built, first.
+# A ./build-asan whose cache lacks the fuzz targets or the sanitizers (a folder configured by
+# hand) is configured again as the sanitizer build configures it, and built, first. Only those two
+# options are checked.
 sanitized() {
   grep -qx 'BASIS_FUZZ:BOOL=ON' build-asan/CMakeCache.txt 2>/dev/null &&
     grep -qx 'BASIS_SANITIZE:BOOL=ON' build-asan/CMakeCache.txt

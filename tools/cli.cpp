@@ -38,8 +38,8 @@ extern "C" void on_signal(int) {
 // a pipe whose reader left while SIGPIPE is ignored). A write that failed while the tool worked
 // stops the stream's later writes, and so leaves no errno here: then, where the output is not a
 // regular file, one byte more goes straight to it, whose results are lost anyway, to learn why
-// (a file keeps what it has, and the message says only "write error"; results that can outgrow
-// the buffer go through write_standard_output, which keeps the failed write's reason).
+// (a file keeps what it has, and the message says only "write error"; qtconvolve's results go
+// through write_standard_output and flush_standard_output, which keep the failed write's reason).
 bool standard_output_written() {
   errno = 0;  // before the writes, so that a failed one's reason stays for the message
   std::cout.flush();
@@ -66,14 +66,25 @@ const std::atomic<bool>& interrupt_flag() {
   return interrupted;
 }
 
-void write_standard_output(std::string_view text) {
-  errno = 0;
-  if (std::fwrite(text.data(), 1, text.size(), stdout) == text.size() && !std::ferror(stdout))
-    return;
-  const int reason = errno;
+namespace {
+
+[[noreturn]] void standard_output_lost(int reason) {
   throw std::runtime_error(std::string("standard output: ") +
                            (reason != 0 ? std::strerror(reason) : "write error") +
                            "; results lost");
+}
+
+}  // namespace
+
+void write_standard_output(std::string_view text) {
+  errno = 0;
+  if (std::fwrite(text.data(), 1, text.size(), stdout) != text.size() || std::ferror(stdout))
+    standard_output_lost(errno);
+}
+
+void flush_standard_output() {
+  errno = 0;
+  if (std::fflush(stdout) != 0 || std::ferror(stdout)) standard_output_lost(errno);
 }
 
 namespace {

@@ -39,6 +39,9 @@ const std::atomic<bool>& interrupt_flag();
 // "standard output: REASON; results lost" at once, with the failed write's own reason, so that
 // the tool stops instead of working on.
 void write_standard_output(std::string_view text);
+// Flushes what write_standard_output left in standard output's buffer; the same error where the
+// output refuses it (so that the last block's failure keeps its reason too).
+void flush_standard_output();
 
 // Thrown by tools for bad usage detected after parsing (exit status 2).
 class UsageError : public std::runtime_error {

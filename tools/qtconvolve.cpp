@@ -126,8 +126,10 @@ class Output {
       basis::cli::write_standard_output(text);
   }
   void commit() {
-    if (file_) file_->commit();
-    std::fflush(stdout);
+    if (file_)
+      file_->commit();
+    else
+      basis::cli::flush_standard_output();
   }
 
  private:

@@ -407,22 +407,27 @@ TEST(BadInputMatrix, UnwritableOutputs) {
   check(dir, "qtconvolve", {{"ok.qt", "cap.qt", "--png", "full.png"}, 1, problem});
 }
 
+// A capture set `name` of `count` points under a constant sky, in dir (exit status 0 asserted by
+// the caller).
+int write_capture_set(const TempDir& dir, const std::string& name, int count) {
+  std::ofstream points(dir.file(name + ".csv"));
+  for (int p = 0; p < count; ++p)
+    points << p << ",0,0,0,0,1\n";
+  points.close();
+  return run_tool("capture2qt",
+                  {"--env-constant", "1,1,1", "--points", name + ".csv", "--res", "8", "-o",
+                   name + ".qt", "-q"},
+                  dir.path())
+      .status;
+}
+
 // Results printed to a standard output that cannot take them (a full device) are an error
 // naming it and why, where they used to be lost with exit 0; so is help. Results longer than
 // the output's buffer fail while the tool works, and the reason is still given.
 TEST(BadInputMatrix, ResultsThatStandardOutputCannotTakeAreAnError) {
   TempDir dir;
   write_inputs(dir);
-  std::ofstream points(dir.file("points.csv"));
-  for (int p = 0; p < 400; ++p)
-    points << p << ",0,0,0,0,1\n";
-  points.close();
-  ASSERT_EQ(run_tool("capture2qt",
-                     {"--env-constant", "1,1,1", "--points", "points.csv", "--res", "8", "-o",
-                      "many.qt", "-q"},
-                     dir.path())
-                .status,
-            0);
+  ASSERT_EQ(write_capture_set(dir, "many", 400), 0);
   for (const std::string command :
        {"qtinfo ok.qt --json", "qtconvolve ok.qt cap.qt --csv", "qtconvolve ok.qt many.qt --csv",
         "brdf2qt --help", "capture2qt --help", "qtinfo --help", "qtconvolve --help",
@@ -453,7 +458,20 @@ TEST(BadInputMatrix, ResultsThatStandardOutputCannotTakeAreAnError) {
   const std::string err = testing::slurp(dir.file("err.txt"));
   EXPECT_EQ(err, std::string("qtconvolve: standard output: ") + std::strerror(EFBIG) +
                      "; results lost\n");
-  EXPECT_LE(std::filesystem::file_size(dir.file("limited.csv")), 4 * 1024);
+  // The shell's limit counts blocks of 512 bytes.
+  EXPECT_LE(std::filesystem::file_size(dir.file("limited.csv")), 4 * 512);
+  // Results that fit the output's buffer (20 rows, over one block and under the buffer's 4 KiB)
+  // fail only when it is flushed, at the end: the same.
+  ASSERT_EQ(write_capture_set(dir, "few", 20), 0);
+  const std::string small = "cd '" + dir.path() + "' && trap '' XFSZ && ulimit -f 1 && '" +
+                            testing::tool_directory().string() +
+                            "'/qtconvolve ok.qt few.qt --csv > small.csv 2> err.txt";
+  const int small_status = std::system(small.c_str());
+  ASSERT_TRUE(WIFEXITED(small_status));
+  EXPECT_EQ(WEXITSTATUS(small_status), 1);
+  EXPECT_EQ(testing::slurp(dir.file("err.txt")), std::string("qtconvolve: standard output: ") +
+                                                     std::strerror(EFBIG) + "; results lost\n");
+  EXPECT_LE(std::filesystem::file_size(dir.file("small.csv")), 512u);
 }
 
 // An output that would destroy an input, or another output, is bad usage: exit 2, one line,

@@ -624,8 +624,9 @@ struct NarrowPairs {
       }
       internal &= ~unsigned(_mm_movemask_ps(enough));
     }
-    // At a texel node every quadrant stops (internal is 0): the sums take the lanes unmasked,
-    // and no quadrant goes on to charge its stopping bound (the same sums, without the masks).
+    // At a texel node every quadrant stops (run_level passes internal as 0, and this relies on
+    // it): the sums take the lanes unmasked, and no quadrant goes on to charge its stopping
+    // bound (the same sums, without the masks).
     constexpr bool kAllStop = kTexelA || kTexelB;
     const __m128 internal_lanes = lanes_of(internal);
     const auto stopped = [&](__m128 x) {
@@ -887,8 +888,9 @@ struct MidPairs {
                   lanes12_per_channel(k.allowed);
       internal &= ~all_channels_at_most(term, allowed);
     }
-    // At a texel node every quadrant stops (internal is 0): the sums take the lanes unmasked,
-    // and no quadrant goes on to charge its stopping bound (the same sums, without the masks).
+    // At a texel node every quadrant stops (run_level passes internal as 0, and this relies on
+    // it): the sums take the lanes unmasked, and no quadrant goes on to charge its stopping
+    // bound (the same sums, without the masks).
     constexpr bool kAllStop = kTexelA || kTexelB;
     const __m128 internal_lanes = lanes_of(internal);
     const auto stopped = [&](Lanes12 x) {

@@ -76,8 +76,7 @@ bool derive_pass(PackedTree& tree, std::vector<double>& scratch) {
       // estimate of M_i and a bound on that estimate's error. A value the file stores (a
       // texel's, or a node's that is not derived) is within half its word's step of M_i, as
       // every descent takes it. Each is written below before it is read, so they are not
-      // cleared first (five fills of 96 bytes for every derived quadrant had cost a fifth of
-      // the restoring's instructions).
+      // cleared first (five short fills for every derived quadrant, each slow to start).
       std::array<std::array<double, 4>, 3> v, s, e, estimate, estimate_error;
       std::array<double, 3> mean{}, mean_error{};
       std::array<float, 3> scaled_mean{};

@@ -10,7 +10,7 @@
 namespace basis {
 namespace {
 
-// 2^k, exactly, for the exponents a word's step takes (-24 to 8), without a call to ldexp.
+// 2^k, exactly, for the exponents a word's step takes (-8 to 24), without a call to ldexp.
 double power_of_two(int k) {
   return std::bit_cast<double>(std::uint64_t(1023 + k) << 52);
 }
