@@ -421,6 +421,17 @@ int write_capture_set(const TempDir& dir, const std::string& name, int count) {
       .status;
 }
 
+// std::system's status for `command` (a tool and its arguments) run in dir by the shell, after
+// the shell commands `limits` (each followed by " && "), its standard output to `output` and its
+// standard error to err.txt.
+int run_in_shell(const TempDir& dir, const std::string& limits, const std::string& command,
+                 const std::string& output) {
+  const std::string shell = "cd '" + dir.path() + "' && " + limits + "'" +
+                            testing::tool_directory().string() + "'/" + command + " > " + output +
+                            " 2> err.txt";
+  return std::system(shell.c_str());
+}
+
 // Results printed to a standard output that cannot take them (a full device) are an error
 // naming it and why, where they used to be lost with exit 0; so is help. Results longer than
 // the output's buffer fail while the tool works, and the reason is still given.
@@ -432,9 +443,7 @@ TEST(BadInputMatrix, ResultsThatStandardOutputCannotTakeAreAnError) {
        {"qtinfo ok.qt --json", "qtconvolve ok.qt cap.qt --csv", "qtconvolve ok.qt many.qt --csv",
         "brdf2qt --help", "capture2qt --help", "qtinfo --help", "qtconvolve --help",
         "qtmerge --help", "qtrender --help", "qtinfo --version"}) {
-    const std::string shell = "cd '" + dir.path() + "' && '" + testing::tool_directory().string() +
-                              "'/" + command + " > /dev/full 2> err.txt";
-    const int status = std::system(shell.c_str());
+    const int status = run_in_shell(dir, "", command, "/dev/full");
     ASSERT_TRUE(WIFEXITED(status)) << command;
     EXPECT_EQ(WEXITSTATUS(status), 1) << command;
     const std::string err = testing::slurp(dir.file("err.txt"));
@@ -449,10 +458,8 @@ TEST(BadInputMatrix, ResultsThatStandardOutputCannotTakeAreAnError) {
   // A regular file that stops taking results while the tool works (here: over the size limit the
   // shell sets, its signal ignored, as a full disk would): the failed write's own reason, where
   // the message used to say only "write error".
-  const std::string shell = "cd '" + dir.path() + "' && trap '' XFSZ && ulimit -f 4 && '" +
-                            testing::tool_directory().string() +
-                            "'/qtconvolve ok.qt many.qt --csv > limited.csv 2> err.txt";
-  const int status = std::system(shell.c_str());
+  const int status = run_in_shell(dir, "trap '' XFSZ && ulimit -f 4 && ",
+                                  "qtconvolve ok.qt many.qt --csv", "limited.csv");
   ASSERT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 1);
   const std::string err = testing::slurp(dir.file("err.txt"));
@@ -463,10 +470,8 @@ TEST(BadInputMatrix, ResultsThatStandardOutputCannotTakeAreAnError) {
   // Results that fit the output's buffer (20 rows, over one block and under the buffer's 4 KiB)
   // fail only when it is flushed, at the end: the same.
   ASSERT_EQ(write_capture_set(dir, "few", 20), 0);
-  const std::string small = "cd '" + dir.path() + "' && trap '' XFSZ && ulimit -f 1 && '" +
-                            testing::tool_directory().string() +
-                            "'/qtconvolve ok.qt few.qt --csv > small.csv 2> err.txt";
-  const int small_status = std::system(small.c_str());
+  const int small_status = run_in_shell(dir, "trap '' XFSZ && ulimit -f 1 && ",
+                                        "qtconvolve ok.qt few.qt --csv", "small.csv");
   ASSERT_TRUE(WIFEXITED(small_status));
   EXPECT_EQ(WEXITSTATUS(small_status), 1);
   EXPECT_EQ(testing::slurp(dir.file("err.txt")), std::string("qtconvolve: standard output: ") +
